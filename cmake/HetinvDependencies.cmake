@@ -1,0 +1,54 @@
+# Finds every dependency; a missing one stops configuration with the Debian
+# package that provides it.
+include(FindPkgConfig)
+
+function(hetinv_missing what package)
+  message(FATAL_ERROR "libhetinv needs ${what}, which was not found.\n"
+                      "On Debian/Ubuntu: apt-get install ${package}")
+endfunction()
+
+find_package(PkgConfig QUIET)
+if(NOT PKG_CONFIG_FOUND)
+  hetinv_missing("pkg-config" "pkg-config")
+endif()
+
+# OpenEXR: only its C API (OpenEXRCore) is used. pkg-config gives the C++
+# libraries too, so link the core library alone.
+pkg_check_modules(OPENEXR QUIET OpenEXR)
+find_library(HETINV_OPENEXRCORE_LIBRARY NAMES OpenEXRCore-3_1 OpenEXRCore
+             HINTS ${OPENEXR_LIBRARY_DIRS})
+if(NOT OPENEXR_FOUND OR NOT HETINV_OPENEXRCORE_LIBRARY)
+  hetinv_missing("OpenEXR (OpenEXRCore C API)" "libopenexr-dev")
+endif()
+add_library(hetinv_openexr INTERFACE)
+target_include_directories(hetinv_openexr SYSTEM INTERFACE ${OPENEXR_INCLUDE_DIRS})
+target_link_libraries(hetinv_openexr INTERFACE ${HETINV_OPENEXRCORE_LIBRARY})
+
+pkg_check_modules(PNG QUIET IMPORTED_TARGET libpng)
+if(NOT PNG_FOUND)
+  hetinv_missing("libpng" "libpng-dev")
+endif()
+
+find_path(HETINV_RANDOM123_INCLUDE_DIR NAMES Random123/philox.h)
+if(NOT HETINV_RANDOM123_INCLUDE_DIR)
+  hetinv_missing("Random123 (header-only)" "librandom123-dev")
+endif()
+
+find_package(OpenMP QUIET COMPONENTS C)
+if(NOT OpenMP_C_FOUND)
+  hetinv_missing("OpenMP for C" "libgomp1 (gcc) or libomp-dev (clang)")
+endif()
+
+if(HETINV_BUILD_TESTS)
+  pkg_check_modules(CMOCKA QUIET IMPORTED_TARGET cmocka)
+  if(NOT CMOCKA_FOUND)
+    hetinv_missing("cmocka (for the tests; or -DHETINV_BUILD_TESTS=OFF)" "libcmocka-dev")
+  endif()
+endif()
+
+if(HETINV_BUILD_EXAMPLES)
+  pkg_check_modules(CJSON QUIET IMPORTED_TARGET libcjson)
+  if(NOT CJSON_FOUND)
+    hetinv_missing("cJSON (for the examples; or -DHETINV_BUILD_EXAMPLES=OFF)" "libcjson-dev")
+  endif()
+endif()

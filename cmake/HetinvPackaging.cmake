@@ -1,0 +1,24 @@
+# Installation: library, public headers, pkg-config file, CMake package.
+include(CMakePackageConfigHelpers)
+
+install(TARGETS hetinv EXPORT hetinvTargets
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
+  INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/hetinv DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+        FILES_MATCHING PATTERN "*.h")
+install(FILES ${PROJECT_BINARY_DIR}/include/hetinv/version.h
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/hetinv)
+
+configure_file(${PROJECT_SOURCE_DIR}/hetinv.pc.in ${PROJECT_BINARY_DIR}/hetinv.pc @ONLY)
+install(FILES ${PROJECT_BINARY_DIR}/hetinv.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+
+set(HETINV_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/hetinv)
+install(EXPORT hetinvTargets NAMESPACE hetinv:: DESTINATION ${HETINV_CMAKE_DIR})
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/hetinvConfig.cmake.in
+  ${PROJECT_BINARY_DIR}/hetinvConfig.cmake INSTALL_DESTINATION ${HETINV_CMAKE_DIR})
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/hetinvConfigVersion.cmake
+  VERSION ${PROJECT_VERSION} COMPATIBILITY SameMajorVersion)
+install(FILES ${PROJECT_BINARY_DIR}/hetinvConfig.cmake ${PROJECT_BINARY_DIR}/hetinvConfigVersion.cmake
+        DESTINATION ${HETINV_CMAKE_DIR})

@@ -1,0 +1,129 @@
+/**
+ * @file context.h
+ * @brief The context: allocator, error reporting, threads and base seed.
+ *
+ * Every other libhetinv object is created from a context and must be
+ * destroyed before it. A context may be used from several threads at once
+ * (its state is read-only after creation); the objects created from it have
+ * their own rules, stated in their headers.
+ */
+#ifndef HETINV_CONTEXT_H
+#define HETINV_CONTEXT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hetinv/export.h"
+#include "hetinv/result.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Opaque context handle. */
+typedef struct hetinv_context hetinv_context_t;
+
+/**
+ * @brief Allocation hook: return @p size bytes aligned for any object type
+ *        (as malloc does), or NULL on failure. @p size is never 0.
+ */
+typedef void *(*hetinv_alloc_fn)(void *user_data, size_t size);
+/** @brief Release hook: free memory returned by the matching alloc hook; @p ptr is never NULL. */
+typedef void (*hetinv_free_fn)(void *user_data, void *ptr);
+
+/**
+ * @brief Error callback, called on the failing thread after the message has
+ *        been recorded. @p message is valid only during the call.
+ *        It may be called from several threads at once.
+ */
+typedef void (*hetinv_error_fn)(void *user_data, hetinv_result_t code, const char *message);
+
+/**
+ * @brief Creation parameters of a context.
+ *
+ * Start from HETINV_CONTEXT_INIT_DEFAULT and change what you need. The first
+ * member is the struct's own size, so later versions can append members
+ * without breaking programs compiled against this header: the library reads
+ * only the members that @c size covers.
+ */
+typedef struct hetinv_context_init {
+  size_t size;                /**< sizeof(hetinv_context_init_t); set by HETINV_CONTEXT_INIT_DEFAULT */
+  hetinv_alloc_fn alloc_fn;   /**< NULL: malloc. Must be set together with free_fn. */
+  hetinv_free_fn free_fn;     /**< NULL: free. */
+  void *alloc_user_data;      /**< passed to alloc_fn and free_fn */
+  hetinv_error_fn error_fn;   /**< NULL: no callback (messages are still recorded) */
+  void *error_user_data;      /**< passed to error_fn */
+  int32_t thread_count;       /**< worker threads for parallel work; 0: all the OpenMP runtime offers */
+  uint64_t seed;              /**< base seed of every random stream derived from this context */
+} hetinv_context_init_t;
+
+/** Default initialiser: malloc/free, no callback, all threads, seed 0. */
+#define HETINV_CONTEXT_INIT_DEFAULT \
+  { sizeof(hetinv_context_init_t), NULL, NULL, NULL, NULL, NULL, 0, 0 }
+
+/**
+ * @brief Create a context.
+ * @param init creation parameters, or NULL for HETINV_CONTEXT_INIT_DEFAULT.
+ *        Read during the call only.
+ * @param[out] out receives the new context; set to NULL on failure.
+ * @return HETINV_SUCCESS;
+ *         HETINV_ERROR_NULL_ARGUMENT if @p out is NULL;
+ *         HETINV_ERROR_INVALID_ARGUMENT if init->size is smaller than the
+ *         first version of the struct, thread_count < 0, or exactly one of
+ *         alloc_fn / free_fn is set;
+ *         HETINV_ERROR_OUT_OF_MEMORY.
+ * Thread-safe.
+ */
+HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *init,
+                                                 hetinv_context_t **out);
+
+/**
+ * @brief Destroy a context and set @p *ctx to NULL.
+ *
+ * Every object created from the context must have been destroyed first.
+ * @param ctx address of the handle; NULL or a NULL handle is a no-op.
+ * Not thread-safe with respect to other uses of the same context.
+ */
+HETINV_API void hetinv_context_destroy(hetinv_context_t **ctx);
+
+/**
+ * @brief Number of worker threads parallel calls of this context use
+ *        (thread_count of the initialiser, or the OpenMP maximum if it was 0).
+ * @param ctx the context; NULL gives 0. Thread-safe.
+ */
+HETINV_API int32_t hetinv_context_thread_count(const hetinv_context_t *ctx);
+
+/**
+ * @brief Base seed of the context's random streams.
+ * @param ctx the context; NULL gives 0. Thread-safe.
+ */
+HETINV_API uint64_t hetinv_context_seed(const hetinv_context_t *ctx);
+
+/**
+ * @brief Detailed message of the last failing call on the calling thread.
+ *
+ * Messages name the offending value and where it is, e.g.
+ * "hetinv_medium_set_grid: sigma_s of voxel (12, 4, 0) is -0.3; it must be >= 0".
+ * A successful call does not clear the message.
+ * @param ctx the context the failing call was made on, or NULL for the last
+ *        failure on this thread whatever its context (use NULL after a failed
+ *        hetinv_context_create). If the thread's last failure belongs to
+ *        another context, the result is "".
+ * @return a string owned by the library, valid until the next failing call
+ *         on this thread; never NULL ("" when there was no failure).
+ * Thread-safe: each thread has its own message.
+ */
+HETINV_API const char *hetinv_context_last_error_message(const hetinv_context_t *ctx);
+
+/**
+ * @brief Result code of the last failing call on the calling thread, with the
+ *        same context rule as hetinv_context_last_error_message();
+ *        HETINV_SUCCESS when there is none. Thread-safe.
+ */
+HETINV_API hetinv_result_t hetinv_context_last_error_code(const hetinv_context_t *ctx);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* HETINV_CONTEXT_H */

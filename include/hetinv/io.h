@@ -1,0 +1,270 @@
+/**
+ * @file io.h
+ * @brief Files: Mitsuba .vol grids, OpenEXR images, PNG previews.
+ *
+ * Every writer writes to a temporary file in the destination folder and
+ * renames it into place, so an interrupted or failed write never leaves a
+ * partial file under the final name. Every reader validates what it reads
+ * and fails with HETINV_ERROR_CORRUPT_FILE (or HETINV_ERROR_UNSUPPORTED /
+ * HETINV_ERROR_SIZE_OVERFLOW) and a message naming the offending field,
+ * never by crashing.
+ */
+#ifndef HETINV_IO_H
+#define HETINV_IO_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hetinv/context.h"
+#include "hetinv/export.h"
+#include "hetinv/medium.h"
+#include "hetinv/result.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ------------------------------------------------------------------------ */
+/** @name Mitsuba binary grid volumes (.vol)
+ *
+ * Format (little-endian): "VOL", version byte 3, int32 encoding (1 = float32,
+ * the only one supported), int32 xres, yres, zres, int32 channels (1 or 3),
+ * six float32 bounding box values (xmin, ymin, zmin, xmax, ymax, zmax), then
+ * xres·yres·zres·channels float32 values, index
+ * ((z·yres + y)·xres + x)·channels + c. Values must be finite.
+ * @{ */
+
+/** Header of a .vol file. */
+typedef struct hetinv_vol_header {
+  int32_t dims[3];    /**< xres, yres, zres, each > 0 */
+  int32_t channels;   /**< 1 or 3 */
+  double box_min[3];  /**< bounding box (stored as float32 in the file) */
+  double box_max[3];
+} hetinv_vol_header_t;
+
+/**
+ * @brief Read and validate the header of a .vol file (dimensions and file
+ *        size are checked against each other; values are not read).
+ * @param ctx context for error reporting.
+ * @param path file to read.
+ * @param[out] header receives the header; zeroed on failure.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO (cannot
+ *         open/read); HETINV_ERROR_CORRUPT_FILE (wrong magic, truncated,
+ *         non-positive dimension, bad box); HETINV_ERROR_UNSUPPORTED (version
+ *         other than 3, encoding other than float32, channels other than 1
+ *         or 3); HETINV_ERROR_SIZE_OVERFLOW. Thread-safe.
+ */
+HETINV_API hetinv_result_t hetinv_vol_read_header(hetinv_context_t *ctx, const char *path,
+                                                  hetinv_vol_header_t *header);
+
+/**
+ * @brief Read a .vol file into caller-owned memory.
+ * @param[out] header receives the header; zeroed on failure.
+ * @param[out] data receives dims[0]·dims[1]·dims[2]·channels floats in file order.
+ * @param capacity number of floats @p data can hold; too small gives
+ *        HETINV_ERROR_INVALID_ARGUMENT (read the header first to size it).
+ * @return as hetinv_vol_read_header(), plus HETINV_ERROR_CORRUPT_FILE for a
+ *         NaN or infinite value (the message names its voxel and channel).
+ *         On failure @p data may have been partly written. Thread-safe.
+ */
+HETINV_API hetinv_result_t hetinv_vol_read(hetinv_context_t *ctx, const char *path,
+                                           hetinv_vol_header_t *header, float *data,
+                                           size_t capacity);
+
+/**
+ * @brief Write a .vol file (atomically: temporary file, then rename).
+ * @param header dims > 0, channels 1 or 3, finite box with min < max.
+ * @param data dims[0]·dims[1]·dims[2]·channels finite floats; @p count must equal that.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (bad header, wrong count, non-finite
+ *         value); HETINV_ERROR_SIZE_OVERFLOW; HETINV_ERROR_IO. Thread-safe.
+ */
+HETINV_API hetinv_result_t hetinv_vol_write(hetinv_context_t *ctx, const char *path,
+                                            const hetinv_vol_header_t *header, const float *data,
+                                            size_t count);
+
+/**
+ * @brief Set one parameter of every voxel of an uncommitted medium from a
+ *        1-channel .vol file with the same dimensions. The file's bounding box
+ *        is not compared: the medium's box applies.
+ * @return as hetinv_vol_read() and hetinv_medium_set_grid(); a dimension or
+ *         channel mismatch is HETINV_ERROR_INVALID_ARGUMENT.
+ */
+HETINV_API hetinv_result_t hetinv_medium_read_vol(hetinv_medium_t *medium, hetinv_param_t param,
+                                                  const char *path);
+
+/**
+ * @brief Write one parameter of a medium as a 1-channel .vol file with the
+ *        medium's box and grid (values rounded to float32).
+ * @return as hetinv_vol_write(); HETINV_ERROR_OUT_OF_RANGE for an unknown @p param.
+ */
+HETINV_API hetinv_result_t hetinv_medium_write_vol(const hetinv_medium_t *medium,
+                                                   hetinv_param_t param, const char *path);
+/** @} */
+
+/* ------------------------------------------------------------------------ */
+/** @name Images (OpenEXR, PNG)
+ *
+ * An image is width × height pixels of float32 in any number of named
+ * channels, plus named attributes (string, double or int) that make a file
+ * describe itself. A transient (pathlength-resolved) stack is one channel
+ * per pathlength bin. Pixel (x, y) of channel c is
+ * hetinv_image_channel_data(img, c)[y * width + x], row 0 at the top.
+ * An image belongs to one thread at a time.
+ * @{ */
+
+/** Opaque image handle. */
+typedef struct hetinv_image hetinv_image_t;
+
+/** Type of an image attribute: a value of enum hetinv_attribute_type_id. */
+typedef int32_t hetinv_attribute_type_t;
+
+/** Attribute types. Pinned values. */
+enum hetinv_attribute_type_id {
+  HETINV_ATTRIBUTE_STRING = 0, /**< UTF-8 string */
+  HETINV_ATTRIBUTE_DOUBLE = 1, /**< 64-bit float (stored as an EXR "double") */
+  HETINV_ATTRIBUTE_INT = 2     /**< 32-bit signed integer */
+};
+
+/** Colour maps of PNG previews. Pinned values. */
+enum hetinv_colormap_id {
+  HETINV_COLORMAP_GRAY = 0,   /**< black to white */
+  HETINV_COLORMAP_VIRIDIS = 1 /**< perceptually uniform dark blue → green → yellow */
+};
+
+/**
+ * @brief Create an image with all pixels 0, channels named "c0", "c1", ...
+ *        and no attributes.
+ * @param width, height, channel_count each > 0; the total number of floats
+ *        must fit in memory sizes.
+ * @param[out] out receives the image; NULL on failure.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT; HETINV_ERROR_SIZE_OVERFLOW;
+ *         HETINV_ERROR_OUT_OF_MEMORY. Thread-safe.
+ */
+HETINV_API hetinv_result_t hetinv_image_create(hetinv_context_t *ctx, int32_t width,
+                                               int32_t height, int32_t channel_count,
+                                               hetinv_image_t **out);
+
+/** @brief Destroy an image and set @p *image to NULL; NULL is a no-op. */
+HETINV_API void hetinv_image_destroy(hetinv_image_t **image);
+
+/**
+ * @brief Size of the image. Outputs may be NULL if not wanted.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT if @p image is NULL.
+ */
+HETINV_API hetinv_result_t hetinv_image_get_size(const hetinv_image_t *image, int32_t *width,
+                                                 int32_t *height, int32_t *channel_count);
+
+/**
+ * @brief Pixels of one channel, width·height floats, row-major, owned by the
+ *        image. NULL for a NULL image or a channel out of range.
+ */
+HETINV_API float *hetinv_image_channel_data(hetinv_image_t *image, int32_t channel);
+
+/**
+ * @brief Rename a channel.
+ * @param name 1 to 255 bytes, printable ASCII, not used by another channel. Copied.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
+ *         (channel); HETINV_ERROR_INVALID_ARGUMENT (bad or duplicate name);
+ *         HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_image_set_channel_name(hetinv_image_t *image, int32_t channel,
+                                                         const char *name);
+
+/** @brief Name of a channel, owned by the image; NULL if out of range. */
+HETINV_API const char *hetinv_image_channel_name(const hetinv_image_t *image, int32_t channel);
+
+/**
+ * @brief Index of the channel called @p name.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
+ *         if there is no such channel (then *channel = -1).
+ */
+HETINV_API hetinv_result_t hetinv_image_find_channel(const hetinv_image_t *image, const char *name,
+                                                     int32_t *channel);
+
+/**
+ * @brief Set (add or replace) an attribute.
+ * @param name 1 to 255 bytes of printable ASCII, not a standard OpenEXR header
+ *        attribute name (e.g. "channels", "compression"). Copied.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (bad name; a non-finite double;
+ *         a string longer than 65535 bytes); HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_image_set_attribute_string(hetinv_image_t *image,
+                                                             const char *name, const char *value);
+/** @copydoc hetinv_image_set_attribute_string */
+HETINV_API hetinv_result_t hetinv_image_set_attribute_double(hetinv_image_t *image,
+                                                             const char *name, double value);
+/** @copydoc hetinv_image_set_attribute_string */
+HETINV_API hetinv_result_t hetinv_image_set_attribute_int(hetinv_image_t *image, const char *name,
+                                                          int32_t value);
+
+/** @brief Number of attributes; 0 for NULL. */
+HETINV_API int32_t hetinv_image_attribute_count(const hetinv_image_t *image);
+
+/**
+ * @brief Name and type of attribute @p index (0 ≤ index < count), in the
+ *        order they were set (or read). Either output may be NULL.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE.
+ */
+HETINV_API hetinv_result_t hetinv_image_attribute_at(const hetinv_image_t *image, int32_t index,
+                                                     const char **name,
+                                                     hetinv_attribute_type_t *type);
+
+/**
+ * @brief Value of the attribute called @p name. The string is owned by the image.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_OUT_OF_RANGE (no such attribute);
+ *         HETINV_ERROR_INVALID_ARGUMENT (it has another type).
+ */
+HETINV_API hetinv_result_t hetinv_image_get_attribute_string(const hetinv_image_t *image,
+                                                             const char *name, const char **value);
+/** @copydoc hetinv_image_get_attribute_string */
+HETINV_API hetinv_result_t hetinv_image_get_attribute_double(const hetinv_image_t *image,
+                                                             const char *name, double *value);
+/** @copydoc hetinv_image_get_attribute_string */
+HETINV_API hetinv_result_t hetinv_image_get_attribute_int(const hetinv_image_t *image,
+                                                          const char *name, int32_t *value);
+
+/**
+ * @brief Write the image as a single-part scanline OpenEXR file, float32
+ *        channels, ZIP compression, with its attributes in the header.
+ *        Atomic (temporary file, then rename).
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO.
+ */
+HETINV_API hetinv_result_t hetinv_image_write_exr(const hetinv_image_t *image, const char *path);
+
+/**
+ * @brief Read the first part of an OpenEXR file (scanline or tiled; half,
+ *        float or uint channels, converted to float) with its string,
+ *        float, double and int attributes (floats become doubles).
+ * @param[out] out receives the image; NULL on failure.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO;
+ *         HETINV_ERROR_CORRUPT_FILE; HETINV_ERROR_UNSUPPORTED (deep data,
+ *         subsampled channels); HETINV_ERROR_SIZE_OVERFLOW;
+ *         HETINV_ERROR_OUT_OF_MEMORY. Thread-safe.
+ */
+HETINV_API hetinv_result_t hetinv_image_read_exr(hetinv_context_t *ctx, const char *path,
+                                                 hetinv_image_t **out);
+
+/**
+ * @brief Write one channel as an 8-bit RGB PNG false-colour preview
+ *        (atomic). Values map linearly from [lo, hi] onto the colour map and
+ *        are clamped; non-finite values are drawn black (gray) or magenta.
+ * @param lo, hi range; if lo == hi the channel's finite minimum and maximum are used.
+ * @param colormap a value of enum hetinv_colormap_id.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
+ *         (channel, colormap); HETINV_ERROR_INVALID_ARGUMENT (non-finite or
+ *         lo > hi); HETINV_ERROR_IO.
+ */
+HETINV_API hetinv_result_t hetinv_image_write_png(const hetinv_image_t *image, int32_t channel,
+                                                  const char *path, double lo, double hi,
+                                                  int32_t colormap);
+/** @} */
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* HETINV_IO_H */

@@ -1,0 +1,2 @@
+/* placeholder */
+typedef int hv_placeholder_exr_write;
