@@ -38,8 +38,8 @@ extern "C" {
 typedef struct hetinv_vol_header {
   int32_t dims[3];    /**< xres, yres, zres, each > 0 */
   int32_t channels;   /**< 1 or 3 */
-  double box_min[3];  /**< bounding box (stored as float32 in the file) */
-  double box_max[3];
+  double box_min[3];  /**< lower corner of the bounding box (float32 in the file) */
+  double box_max[3];  /**< upper corner of the bounding box (float32 in the file) */
 } hetinv_vol_header_t;
 
 /**
@@ -59,6 +59,8 @@ HETINV_API hetinv_result_t hetinv_vol_read_header(hetinv_context_t *ctx, const c
 
 /**
  * @brief Read a .vol file into caller-owned memory.
+ * @param ctx context for error reporting.
+ * @param path file to read.
  * @param[out] header receives the header; zeroed on failure.
  * @param[out] data receives dims[0]·dims[1]·dims[2]·channels floats in file order.
  * @param capacity number of floats @p data can hold; too small gives
@@ -73,8 +75,11 @@ HETINV_API hetinv_result_t hetinv_vol_read(hetinv_context_t *ctx, const char *pa
 
 /**
  * @brief Write a .vol file (atomically: temporary file, then rename).
+ * @param ctx context for error reporting.
+ * @param path destination; replaced if it exists.
  * @param header dims > 0, channels 1 or 3, finite box with min < max.
- * @param data dims[0]·dims[1]·dims[2]·channels finite floats; @p count must equal that.
+ * @param data dims[0]·dims[1]·dims[2]·channels finite floats.
+ * @param count number of floats in @p data; must equal that product.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
  *         HETINV_ERROR_INVALID_ARGUMENT (bad header, wrong count, non-finite
  *         value); HETINV_ERROR_SIZE_OVERFLOW; HETINV_ERROR_IO. Thread-safe.
@@ -87,6 +92,9 @@ HETINV_API hetinv_result_t hetinv_vol_write(hetinv_context_t *ctx, const char *p
  * @brief Set one parameter of every voxel of an uncommitted medium from a
  *        1-channel .vol file with the same dimensions. The file's bounding box
  *        is not compared: the medium's box applies.
+ * @param medium uncommitted medium whose grid matches the file.
+ * @param param which parameter to set (enum hetinv_param_id).
+ * @param path file to read.
  * @return as hetinv_vol_read() and hetinv_medium_set_grid(); a dimension or
  *         channel mismatch is HETINV_ERROR_INVALID_ARGUMENT.
  */
@@ -96,6 +104,9 @@ HETINV_API hetinv_result_t hetinv_medium_read_vol(hetinv_medium_t *medium, hetin
 /**
  * @brief Write one parameter of a medium as a 1-channel .vol file with the
  *        medium's box and grid (values rounded to float32).
+ * @param medium any medium, committed or not; only read.
+ * @param param which parameter to write (enum hetinv_param_id).
+ * @param path destination; replaced atomically if it exists.
  * @return as hetinv_vol_write(); HETINV_ERROR_OUT_OF_RANGE for an unknown @p param.
  */
 HETINV_API hetinv_result_t hetinv_medium_write_vol(const hetinv_medium_t *medium,
@@ -135,6 +146,7 @@ enum hetinv_colormap_id {
 /**
  * @brief Create an image with all pixels 0, channels named "c0", "c1", ...
  *        and no attributes.
+ * @param ctx the context; the image must be destroyed before it.
  * @param width, height, channel_count each > 0; the total number of floats
  *        must fit in memory sizes.
  * @param[out] out receives the image; NULL on failure.
@@ -164,6 +176,8 @@ HETINV_API float *hetinv_image_channel_data(hetinv_image_t *image, int32_t chann
 
 /**
  * @brief Rename a channel.
+ * @param image the image.
+ * @param channel index, 0 ≤ channel < channel count.
  * @param name 1 to 255 bytes, printable ASCII, not used by another channel. Copied.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
  *         (channel); HETINV_ERROR_INVALID_ARGUMENT (bad or duplicate name);
@@ -185,6 +199,8 @@ HETINV_API hetinv_result_t hetinv_image_find_channel(const hetinv_image_t *image
 
 /**
  * @brief Set (add or replace) an attribute.
+ * @param image the image.
+ * @param value the value (a string is copied).
  * @param name 1 to 255 bytes of printable ASCII, not a standard OpenEXR header
  *        attribute name (e.g. "channels", "compression"). Copied.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
@@ -239,6 +255,8 @@ HETINV_API hetinv_result_t hetinv_image_write_exr(const hetinv_image_t *image, c
  * @brief Read the first part of an OpenEXR file (scanline or tiled; half,
  *        float or uint channels, converted to float) with its string,
  *        float, double and int attributes (floats become doubles).
+ * @param ctx the context; the image must be destroyed before it.
+ * @param path file to read.
  * @param[out] out receives the image; NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO;
  *         HETINV_ERROR_CORRUPT_FILE; HETINV_ERROR_UNSUPPORTED (deep data,
@@ -252,6 +270,9 @@ HETINV_API hetinv_result_t hetinv_image_read_exr(hetinv_context_t *ctx, const ch
  * @brief Write one channel as an 8-bit RGB PNG false-colour preview
  *        (atomic). Values map linearly from [lo, hi] onto the colour map and
  *        are clamped; non-finite values are drawn black (gray) or magenta.
+ * @param image the image; only read.
+ * @param channel index of the channel to draw.
+ * @param path destination; replaced atomically if it exists.
  * @param lo, hi range; if lo == hi the channel's finite minimum and maximum are used.
  * @param colormap a value of enum hetinv_colormap_id.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE

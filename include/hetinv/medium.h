@@ -119,6 +119,8 @@ HETINV_API hetinv_result_t hetinv_medium_set_voxel(hetinv_medium_t *medium, int3
 
 /**
  * @brief Set one parameter of every voxel from an array in linear voxel order.
+ * @param medium uncommitted medium.
+ * @param param which parameter (enum hetinv_param_id).
  * @param values @p count values, read during the call only.
  * @param count must equal hetinv_medium_voxel_count().
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;

@@ -1,0 +1,33 @@
+#!/bin/sh
+# Installs the Debian packages libhetinv needs that are missing (as root, or
+# through sudo when available). Safe to run again: installs nothing if all
+# are present.
+#   usage: install-deps.sh [demo|test]     (test adds the test-only tools)
+set -eu
+mode=${1:-demo}
+pkgs="build-essential cmake pkg-config libopenexr-dev librandom123-dev libpng-dev libcjson-dev"
+if [ "$mode" = test ]; then
+  pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils"
+fi
+
+missing=""
+for p in $pkgs; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed"; then
+    missing="$missing $p"
+  fi
+done
+[ -z "$missing" ] && exit 0
+
+echo "installing:$missing"
+if [ "$(id -u)" -eq 0 ]; then
+  sudo=""
+elif command -v sudo >/dev/null 2>&1; then
+  sudo="sudo"
+else
+  echo "missing Debian packages:$missing; run this script as root" >&2
+  exit 1
+fi
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+# shellcheck disable=SC2086 # one word per package
+$sudo apt-get install -y -qq --no-install-recommends $missing >/dev/null

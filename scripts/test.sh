@@ -1,0 +1,51 @@
+#!/bin/sh
+# Installs what is missing, then builds and runs the whole test suite:
+#  1. every test under AddressSanitizer + UndefinedBehaviorSanitizer, warnings
+#     as errors (build-test/);
+#  2. the libFuzzer harnesses, built with clang, each for a short smoke run
+#     (build-fuzz/).
+# Ends with one line "hetinv: N passed, M failed".
+set -eu
+cd "$(dirname "$0")/.."
+sh scripts/install-deps.sh test
+start=$(date +%s)
+jobs=$(nproc)
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:strict_string_checks=1
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+passed=0
+failed=0
+status=0
+
+# run_suite <build dir> <ctest args...>: runs ctest, adds up its counts.
+run_suite() {
+  dir=$1
+  shift
+  log=$dir/ctest.log
+  if ctest --test-dir "$dir" --output-on-failure -j"$jobs" "$@" >"$log" 2>&1; then :; else status=1; fi
+  cat "$log"
+  summary=$(grep -E '[0-9]+ tests failed out of [0-9]+' "$log" | tail -n 1)
+  if [ -z "$summary" ]; then
+    status=1
+    return
+  fi
+  f=$(echo "$summary" | sed -E 's/.* ([0-9]+) tests failed out of ([0-9]+).*/\1/')
+  n=$(echo "$summary" | sed -E 's/.* ([0-9]+) tests failed out of ([0-9]+).*/\2/')
+  passed=$((passed + n - f))
+  failed=$((failed + f))
+}
+
+echo "== sanitizer build (ASan + UBSan, -Werror)"
+cmake -S . -B build-test -DCMAKE_BUILD_TYPE=Debug -DHETINV_SANITIZE=ON -DHETINV_WERROR=ON >/dev/null
+cmake --build build-test -j"$jobs"
+run_suite build-test
+
+echo "== fuzz build (clang, libFuzzer)"
+CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DHETINV_BUILD_FUZZERS=ON \
+  -DHETINV_BUILD_TESTS=OFF -DHETINV_BUILD_EXAMPLES=OFF -DHETINV_BUILD_BENCH=OFF \
+  -DHETINV_BUILD_DOCS=OFF >/dev/null
+cmake --build build-fuzz -j"$jobs"
+run_suite build-fuzz
+
+echo "test time: $(($(date +%s) - start)) s"
+echo "hetinv: $passed passed, $failed failed"
+exit $status
