@@ -70,7 +70,7 @@ static hetinv_result_t value_count(const hetinv_context_t *ctx, const char *func
             hv_mul_size(n, (size_t)h->dims[2], &n) && hv_mul_size(n, sizeof(float), &bytes);
   if (!ok) {
     return hv_fail(ctx, HETINV_ERROR_SIZE_OVERFLOW, func,
-                   "%s: %d x %d x %d voxels of %d channels overflow size_t", source,
+                   "%s: %d x %d x %d voxels, channels %d, overflow size_t", source,
                    (int)h->dims[0], (int)h->dims[1], (int)h->dims[2], (int)h->channels);
   }
   *count = n;
@@ -327,7 +327,7 @@ hetinv_result_t hv_vol_write_file(const hetinv_context_t *ctx, const char *func,
   if (r != HETINV_SUCCESS) return r;
   if (count != expected) {
     return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
-                   "count is %zu; %d x %d x %d voxels of %d channels are %zu values", count,
+                   "count is %zu; %d x %d x %d voxels, channels %d, need %zu values", count,
                    (int)header->dims[0], (int)header->dims[1], (int)header->dims[2],
                    (int)header->channels, expected);
   }

@@ -87,9 +87,9 @@ static void ior_is_set_and_validated(void **state) {
   assert_true(eta == 1.3);
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, 0.0, 1.0));
   assert_message_contains("eta (inside) is 0");
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, 1.3, NAN));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, 1.3, (double)NAN));
   assert_message_contains("eta_out (outside) is nan");
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, INFINITY, 1.0));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, (double)INFINITY, 1.0));
   assert_ok(hetinv_medium_get_ior(m, &eta, NULL));
   assert_true(eta == 1.3); /* unchanged by the failures */
   hetinv_medium_destroy(&m);
@@ -119,11 +119,11 @@ static void g_outside_open_interval_is_rejected(void **state) {
 
 static void non_finite_values_are_rejected(void **state) {
   hetinv_medium_t *m = make(*state, 2, 2, 2);
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_voxel(m, 0, 1, 0, NAN, 1, 0));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_voxel(m, 0, 1, 0, (double)NAN, 1, 0));
   assert_message_contains("sigma_a of voxel (0, 1, 0) is nan; it must be finite");
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_fill(m, 0, INFINITY, 0));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_fill(m, 0, (double)INFINITY, 0));
   assert_message_contains("sigma_s is inf; it must be finite");
-  double v[8] = {0, 0, 0, 0, 0, 0, 0, -INFINITY};
+  double v[8] = {0, 0, 0, 0, 0, 0, 0, -(double)INFINITY};
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_grid(m, HETINV_PARAM_G, v, 8));
   assert_message_contains("g of voxel (1, 1, 1) is -inf");
   hetinv_medium_destroy(&m);
@@ -165,7 +165,7 @@ static void degenerate_box_is_rejected(void **state) {
                                      (int32_t[]){1, 1, 1}, &m));
   assert_message_contains("box along z");
   assert_result(HETINV_ERROR_INVALID_ARGUMENT,
-                hetinv_medium_create(*state, (double[]){0, 0, NAN}, (double[]){1, 1, 1},
+                hetinv_medium_create(*state, (double[]){0, 0, (double)NAN}, (double[]){1, 1, 1},
                                      (int32_t[]){1, 1, 1}, &m));
   assert_message_contains("must be finite");
 }
