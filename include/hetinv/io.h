@@ -201,8 +201,11 @@ HETINV_API hetinv_result_t hetinv_image_find_channel(const hetinv_image_t *image
  * @brief Set (add or replace) an attribute.
  * @param image the image.
  * @param value the value (a string is copied).
- * @param name 1 to 255 bytes of printable ASCII, not a standard OpenEXR header
- *        attribute name (e.g. "channels", "compression"). Copied.
+ * @param name 1 to 255 bytes of printable ASCII, not a reserved name: the
+ *        standard OpenEXR header attributes channels, compression,
+ *        dataWindow, displayWindow, lineOrder, pixelAspectRatio,
+ *        screenWindowCenter, screenWindowWidth, tiles, type, name, version,
+ *        chunkCount, maxSamplesPerPixel, and hetinv:channelOrder. Copied.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
  *         HETINV_ERROR_INVALID_ARGUMENT (bad name; a non-finite double;
  *         a string longer than 65535 bytes); HETINV_ERROR_OUT_OF_MEMORY.
@@ -246,8 +249,17 @@ HETINV_API hetinv_result_t hetinv_image_get_attribute_int(const hetinv_image_t *
 /**
  * @brief Write the image as a single-part scanline OpenEXR file, float32
  *        channels, ZIP compression, with its attributes in the header.
- *        Atomic (temporary file, then rename).
- * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO.
+ *        Atomic (temporary file, then rename). OpenEXR stores channels
+ *        sorted by name; when the image's order differs, the string-vector
+ *        attribute "hetinv:channelOrder" records it and
+ *        hetinv_image_read_exr() restores it.
+ * @param image the image; only read.
+ * @param path destination; replaced atomically if it exists.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (empty path); HETINV_ERROR_IO;
+ *         HETINV_ERROR_UNSUPPORTED (more than 32767 channels, or a 16-row
+ *         chunk over 2 GiB); HETINV_ERROR_OUT_OF_MEMORY;
+ *         HETINV_ERROR_INTERNAL (an unexpected OpenEXR failure).
  */
 HETINV_API hetinv_result_t hetinv_image_write_exr(const hetinv_image_t *image, const char *path);
 
@@ -255,6 +267,9 @@ HETINV_API hetinv_result_t hetinv_image_write_exr(const hetinv_image_t *image, c
  * @brief Read the first part of an OpenEXR file (scanline or tiled; half,
  *        float or uint channels, converted to float) with its string,
  *        float, double and int attributes (floats become doubles).
+ *        Attributes an image cannot hold (reserved or malformed names,
+ *        strings over 65535 bytes, non-finite numbers, other types) are
+ *        skipped without error.
  * @param ctx the context; the image must be destroyed before it.
  * @param path file to read.
  * @param[out] out receives the image; NULL on failure.
@@ -277,7 +292,7 @@ HETINV_API hetinv_result_t hetinv_image_read_exr(hetinv_context_t *ctx, const ch
  * @param colormap a value of enum hetinv_colormap_id.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
  *         (channel, colormap); HETINV_ERROR_INVALID_ARGUMENT (non-finite or
- *         lo > hi); HETINV_ERROR_IO.
+ *         lo > hi, empty path); HETINV_ERROR_IO; HETINV_ERROR_OUT_OF_MEMORY.
  */
 HETINV_API hetinv_result_t hetinv_image_write_png(const hetinv_image_t *image, int32_t channel,
                                                   const char *path, double lo, double hi,

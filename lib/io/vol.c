@@ -135,7 +135,7 @@ hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx, const char *fun
                      source, axis_names[i], h.box_min[i], h.box_max[i]);
     }
   }
-  size_t count;
+  size_t count = 0;
   hetinv_result_t r = value_count(ctx, func, source, &h, &count);
   if (r != HETINV_SUCCESS) return r;
   /* Compared with the file's length before anyone allocates for the values. */
@@ -322,7 +322,7 @@ static hetinv_result_t write_payload(const hetinv_context_t *ctx, const char *fu
 hetinv_result_t hv_vol_write_file(const hetinv_context_t *ctx, const char *func, const char *path,
                                   const hetinv_vol_header_t *header, const float *data,
                                   size_t count) {
-  size_t expected;
+  size_t expected = 0;
   hetinv_result_t r = check_header(ctx, func, header, &expected);
   if (r != HETINV_SUCCESS) return r;
   if (count != expected) {

@@ -267,7 +267,7 @@ HETINV_API hetinv_result_t hetinv_medium_get_voxel(const hetinv_medium_t *medium
                                                    int32_t iy, int32_t iz, double *sigma_a,
                                                    double *sigma_s, double *g) {
   HV_CHECK_NULL(NULL, medium);
-  size_t k;
+  size_t k = 0;
   hetinv_result_t r = voxel_index(medium, __func__, ix, iy, iz, &k);
   if (r != HETINV_SUCCESS) return r;
   if (sigma_a) *sigma_a = medium->values[HETINV_PARAM_SIGMA_A][k];

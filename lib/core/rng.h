@@ -1,0 +1,101 @@
+/* Counter-based random streams: Philox4x32-10 (Random123), one stream per
+ * (seed, emitter, photon, stream id), so any photon's randomness can be
+ * recomputed alone and results do not depend on thread scheduling.
+ *
+ * Philox maps a 128-bit counter and a 64-bit key to 128 random bits. The
+ * stream's identity is packed injectively into the key and the counter:
+ *
+ *   key = seed (64 bits)
+ *   ctr = { block,                       32 bits: advanced by the stream
+ *           photon bits 0..31,
+ *           photon bits 32..47 | stream << 16,
+ *           emitter }
+ *
+ * hence the limits photon < 2^48 and stream < 2^16, and 2^32 Philox blocks
+ * (2^33 doubles) per stream: far beyond any one photon's path. */
+#ifndef HV_RNG_H
+#define HV_RNG_H
+
+#include <assert.h>
+#include <stdint.h>
+
+/* Random123 trips -Wundef/-Wstrict-prototypes when not found as a system header. */
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wundef"
+#pragma GCC diagnostic ignored "-Wstrict-prototypes"
+#endif
+#include <Random123/philox.h>
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+
+#define HV_RNG_PHOTON_LIMIT (UINT64_C(1) << 48) /* photon indices are < this */
+#define HV_RNG_STREAM_LIMIT (UINT32_C(1) << 16) /* stream ids are < this */
+
+/* A stream: small, copyable, no allocation. Fields are private. */
+typedef struct hv_rng {
+  philox4x32_ctr_t ctr; /* ctr.v[0] is the next block to compute */
+  philox4x32_key_t key;
+  philox4x32_ctr_t out; /* the current block's four outputs */
+  unsigned used;        /* outputs of `out` already returned (4: none left) */
+} hv_rng_t;
+
+/* The stream keyed by (seed, emitter, photon, stream); see the limits above. */
+static inline hv_rng_t hv_rng_init(uint64_t seed, uint32_t emitter, uint64_t photon,
+                                   uint32_t stream) {
+  assert(photon < HV_RNG_PHOTON_LIMIT && stream < HV_RNG_STREAM_LIMIT);
+  hv_rng_t r;
+  r.key.v[0] = (uint32_t)seed;
+  r.key.v[1] = (uint32_t)(seed >> 32);
+  r.ctr.v[0] = 0;
+  r.ctr.v[1] = (uint32_t)photon;
+  r.ctr.v[2] = (uint32_t)((photon >> 32) & 0xffffu) | (stream << 16);
+  r.ctr.v[3] = emitter;
+  r.out = r.ctr; /* never read before the first refill */
+  r.used = 4;
+  return r;
+}
+
+/* The raw generator: Philox4x32-10 of one counter under one key. */
+static inline philox4x32_ctr_t hv_philox4x32_10(philox4x32_ctr_t ctr, philox4x32_key_t key) {
+  return philox4x32_R(10, ctr, key);
+}
+
+/* Next 32 random bits. */
+static inline uint32_t hv_rng_u32(hv_rng_t *r) {
+  if (r->used == 4) {
+    r->out = hv_philox4x32_10(r->ctr, r->key);
+    ++r->ctr.v[0];
+    r->used = 0;
+  }
+  return r->out.v[r->used++];
+}
+
+/* Next 64 random bits (two outputs, the first in the high half). */
+static inline uint64_t hv_rng_u64(hv_rng_t *r) {
+  uint64_t hi = hv_rng_u32(r);
+  return hi << 32 | hv_rng_u32(r);
+}
+
+/* Uniform in [0, 1) from 64 random bits: the top 53 as a multiple of 2^-53. */
+static inline double hv_unit_from_bits(uint64_t bits) {
+  return (double)(bits >> 11) * 0x1p-53;
+}
+
+/* Uniform in (0, 1) from 64 random bits: (k + 1/2)·2^-52 for the top 52 bits
+ * k, so 0 and 1 never occur and -log(u) is finite and > 0 (at most 53 ln 2 ≈
+ * 36.7). 52 bits, not 53, because (2^53 - 1/2)·2^-53 would round to 1. */
+static inline double hv_open_unit_from_bits(uint64_t bits) {
+  return ((double)(bits >> 12) + 0.5) * 0x1p-52;
+}
+
+/* Uniform in [0, 1) with 53 random bits. */
+static inline double hv_rng_uniform(hv_rng_t *r) { return hv_unit_from_bits(hv_rng_u64(r)); }
+
+/* Uniform in (0, 1), for -log(u) and the like. */
+static inline double hv_rng_uniform_open(hv_rng_t *r) {
+  return hv_open_unit_from_bits(hv_rng_u64(r));
+}
+
+#endif
