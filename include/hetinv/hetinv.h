@@ -16,5 +16,8 @@
 #include "hetinv/context.h"
 #include "hetinv/medium.h"
 #include "hetinv/io.h"
+#include "hetinv/sampling.h"
+#include "hetinv/measurement.h"
+#include "hetinv/estimator.h"
 
 #endif /* HETINV_HETINV_H */

@@ -1,0 +1,16 @@
+/* The estimator's state: tunables and the last render's statistics. */
+#ifndef HV_ESTIMATOR_INTERNAL_H
+#define HV_ESTIMATOR_INTERNAL_H
+
+#include <stdbool.h>
+
+#include "hetinv/estimator.h"
+
+struct hetinv_estimator {
+  hetinv_context_t *ctx;
+  double param[HETINV_ESTIMATOR_PARAM_COUNT_];
+  bool has_stats;
+  hetinv_render_stats_t stats;
+};
+
+#endif

@@ -1,0 +1,62 @@
+#include "sampling/geometry.h"
+
+#include <math.h>
+
+#include "core/error.h"
+#include "medium/medium_internal.h"
+
+void hv_geometry_of(const hetinv_medium_t *medium, hv_geometry_t *out) {
+  memcpy(out->lo, medium->box_min, sizeof out->lo);
+  memcpy(out->hi, medium->box_max, sizeof out->hi);
+  out->eta = medium->eta;
+  out->eta_out = medium->eta_out;
+}
+
+hetinv_result_t hv_check_face(const hetinv_context_t *ctx, const char *func, hetinv_face_t face) {
+  if (face >= HETINV_FACE_X_MIN && face <= HETINV_FACE_Z_MAX) return HETINV_SUCCESS;
+  return hv_fail(ctx, HETINV_ERROR_OUT_OF_RANGE, func,
+                 "face is %d; it must be one of HETINV_FACE_X_MIN (0) .. HETINV_FACE_Z_MAX (5)",
+                 (int)face);
+}
+
+hetinv_result_t hv_normalize3(const hetinv_context_t *ctx, const char *func, const char *what,
+                              const double in[3], double out[3]) {
+  double n2 = in[0] * in[0] + in[1] * in[1] + in[2] * in[2];
+  if (!isfinite(in[0]) || !isfinite(in[1]) || !isfinite(in[2]) || !(n2 > 0.0) || !isfinite(n2)) {
+    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+                   "%s is (%g, %g, %g); it must be finite and not zero", what, in[0], in[1],
+                   in[2]);
+  }
+  double s = 1.0 / sqrt(n2);
+  for (int i = 0; i < 3; ++i) out[i] = in[i] * s;
+  return HETINV_SUCCESS;
+}
+
+bool hv_ray_enter_box(const hv_geometry_t *g, const double o[3], const double d[3], double *t,
+                      hetinv_face_t *face) {
+  double t_in = 0.0, t_out = INFINITY;
+  int axis_in = -1;
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0.0) {
+      if (o[a] < g->lo[a] || o[a] > g->hi[a]) return false;
+      continue;
+    }
+    double t0 = (g->lo[a] - o[a]) / d[a], t1 = (g->hi[a] - o[a]) / d[a];
+    if (t0 > t1) {
+      double s = t0;
+      t0 = t1;
+      t1 = s;
+    }
+    if (t0 >= t_in) {
+      t_in = t0;
+      axis_in = a;
+    }
+    if (t1 < t_out) t_out = t1;
+  }
+  /* A positive-length chord is needed: touching an edge or a face from
+   * outside does not let light in. */
+  if (axis_in < 0 || !(t_out > t_in)) return false;
+  *t = t_in;
+  *face = (hetinv_face_t)(2 * axis_in + (d[axis_in] < 0.0 ? 1 : 0));
+  return true;
+}

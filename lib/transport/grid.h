@@ -1,0 +1,156 @@
+/* The medium as the photon loop sees it: extinction, albedo and g per voxel,
+ * and exact regular tracking through the piecewise-constant grid. */
+#ifndef HV_GRID_H
+#define HV_GRID_H
+
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hetinv/medium.h"
+#include "hetinv/sampling.h"
+
+typedef struct hv_grid {
+  double lo[3], hi[3];
+  double h[3], inv_h[3]; /* voxel size and its inverse */
+  int32_t n[3];
+  int64_t stride[3];     /* linear-index step per axis: 1, nx, nx·ny */
+  double *sigma_t;       /* σa + σs */
+  double *albedo;        /* σs / σt (0 where σt = 0) */
+  const double *g;       /* the medium's own array */
+  const double *sigma_s; /* the medium's own array (gradient scores need σs) */
+  double eta, eta_out;
+  const hetinv_context_t *ctx;
+} hv_grid_t;
+
+/* Builds the grid of a committed medium; release with hv_grid_release. */
+hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, hv_grid_t *out);
+void hv_grid_release(hv_grid_t *grid);
+
+/* A ray being tracked: position, unit direction, and its voxel. */
+typedef struct hv_ray {
+  double p[3], d[3];
+  int32_t v[3]; /* voxel coordinates */
+  int64_t k;    /* linear voxel index */
+} hv_ray_t;
+
+/* Voxel of position p (inside or on the boundary) for travel along d: a
+ * point on a voxel face belongs to the voxel the ray is entering. */
+static inline void hv_ray_locate(const hv_grid_t *g, hv_ray_t *r) {
+  r->k = 0;
+  for (int a = 0; a < 3; ++a) {
+    double f = (r->p[a] - g->lo[a]) * g->inv_h[a];
+    double fl = floor(f);
+    int32_t i = (int32_t)fl;
+    if (r->d[a] < 0.0 && f == fl) --i;
+    i = i < 0 ? 0 : (i >= g->n[a] ? g->n[a] - 1 : i);
+    r->v[a] = i;
+    r->k += (int64_t)i * g->stride[a];
+  }
+}
+
+/* Per-voxel segment log for gradient scores: NULL in the forward pass. */
+typedef struct hv_segment_sink hv_segment_sink_t;
+void hv_segment_sink_add(hv_segment_sink_t *sink, int64_t voxel, double length);
+
+/* Amanatides–Woo stepping state of a ray in its current voxel. */
+typedef struct hv_dda {
+  double t_next[3], t_delta[3];
+  int32_t step[3];
+} hv_dda_t;
+
+static inline void hv_dda_init(const hv_grid_t *g, const hv_ray_t *r, hv_dda_t *s) {
+  for (int a = 0; a < 3; ++a) {
+    if (r->d[a] > 0.0) {
+      s->step[a] = 1;
+      s->t_next[a] = (g->lo[a] + (r->v[a] + 1) * g->h[a] - r->p[a]) / r->d[a];
+      s->t_delta[a] = g->h[a] / r->d[a];
+    } else if (r->d[a] < 0.0) {
+      s->step[a] = -1;
+      s->t_next[a] = (g->lo[a] + r->v[a] * g->h[a] - r->p[a]) / r->d[a];
+      s->t_delta[a] = -g->h[a] / r->d[a];
+    } else {
+      s->step[a] = 0;
+      s->t_next[a] = INFINITY;
+      s->t_delta[a] = INFINITY;
+    }
+    if (s->t_next[a] < 0.0) s->t_next[a] = 0.0; /* rounding on a voxel face */
+  }
+}
+
+static inline int hv_dda_axis(const hv_dda_t *s) {
+  return s->t_next[0] < s->t_next[1] ? (s->t_next[0] < s->t_next[2] ? 0 : 2)
+                                     : (s->t_next[1] < s->t_next[2] ? 1 : 2);
+}
+
+/* Steps into the next voxel along axis a at distance t; returns 0 and puts
+ * r->p on the boundary (face in *face) if that leaves the box. */
+static inline int hv_dda_advance(const hv_grid_t *g, hv_ray_t *r, hv_dda_t *s, int a, double t,
+                                 hetinv_face_t *face) {
+  r->v[a] += s->step[a];
+  if (r->v[a] >= 0 && r->v[a] < g->n[a]) {
+    r->k += s->step[a] * g->stride[a];
+    s->t_next[a] += s->t_delta[a];
+    return 1;
+  }
+  r->v[a] -= s->step[a];
+  for (int i = 0; i < 3; ++i) {
+    double x = r->p[i] + t * r->d[i];
+    r->p[i] = x < g->lo[i] ? g->lo[i] : (x > g->hi[i] ? g->hi[i] : x);
+  }
+  r->p[a] = s->step[a] > 0 ? g->hi[a] : g->lo[a];
+  *face = (hetinv_face_t)(2 * a + (s->step[a] > 0 ? 1 : 0));
+  return 0;
+}
+
+/* Free flight: moves the ray until it has crossed optical depth @p depth
+ * (returns 1: a collision at r->p) or reaches the boundary (returns 0: r->p
+ * on face *face). *dist receives the distance travelled; r->k is the voxel
+ * at the end. Segments go to @p sink when it is not NULL. */
+static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth, double *dist,
+                               hetinv_face_t *face, hv_segment_sink_t *sink) {
+  hv_dda_t s;
+  hv_dda_init(g, r, &s);
+  double t = 0.0;
+  for (;;) {
+    int a = hv_dda_axis(&s);
+    double seg = s.t_next[a] - t, st = g->sigma_t[r->k];
+    if (st * seg >= depth) { /* collision inside this voxel */
+      double x = depth / st;
+      if (sink) hv_segment_sink_add(sink, r->k, x);
+      t += x;
+      for (int i = 0; i < 3; ++i) r->p[i] += t * r->d[i];
+      *dist = t;
+      return 1;
+    }
+    if (sink) hv_segment_sink_add(sink, r->k, seg);
+    depth -= st * seg;
+    t = s.t_next[a];
+    if (!hv_dda_advance(g, r, &s, a, t, face)) {
+      *dist = t;
+      return 0;
+    }
+  }
+}
+
+/* Moves the ray straight to the boundary; returns the optical depth crossed
+ * and sets *dist and *face. */
+static inline double hv_ray_to_boundary(const hv_grid_t *g, hv_ray_t *r, double *dist,
+                                        hetinv_face_t *face, hv_segment_sink_t *sink) {
+  hv_dda_t s;
+  hv_dda_init(g, r, &s);
+  double t = 0.0, depth = 0.0;
+  for (;;) {
+    int a = hv_dda_axis(&s);
+    double seg = s.t_next[a] - t;
+    if (sink) hv_segment_sink_add(sink, r->k, seg);
+    depth += g->sigma_t[r->k] * seg;
+    t = s.t_next[a];
+    if (!hv_dda_advance(g, r, &s, a, t, face)) {
+      *dist = t;
+      return depth;
+    }
+  }
+}
+
+#endif

@@ -1,0 +1,173 @@
+#include "transport/tracer.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "medium/fresnel.h"
+#include "medium/phase.h"
+#include "sampling/emitter_internal.h"
+#include "sampling/pathlength_internal.h"
+#include "sampling/sensor_internal.h"
+
+/* A specular chain of a connection stops when its remaining throughput
+ * falls below this fraction of its start: the truncation is far below any
+ * Monte Carlo error bar. */
+#define HV_CHAIN_CUTOFF 1e-7
+#define HV_CHAIN_MAX_BOUNCES 64
+
+/* Adds value at pathlength tau to pixel `pixel` of every row of target t. */
+static void splat_rows(const hv_plan_t *plan, const hv_sensor_target_t *t, double *dst,
+                       int32_t pixel, double tau, double value) {
+  for (int32_t i = 0; i < t->row_count; ++i) {
+    const hv_row_target_t *row = &plan->rows[t->first_row + i];
+    hv_pathlength_splat(row->pathlength, tau, value, dst + row->offset + pixel, row->pixels);
+  }
+}
+
+/* Next-event connection from scattering vertex r (direction of arrival
+ * d_in, weight w after the albedo, phase g, pathlength tau so far) to the
+ * orthographic sensor of target t. The light leaves along the sensor's
+ * interior direction ω_i, possibly after specular reflections at other
+ * faces (or at the sensor's face itself): each chain starts along a sign
+ * flip of ω_i and ends when it reaches the sensor face travelling along
+ * ω_i; every chain is followed until its throughput is negligible. */
+static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
+                           const hv_sensor_target_t *t, const hv_ray_t *vertex,
+                           const double d_in[3], double w, double g, double tau, double *values) {
+  const hetinv_sensor_t *s = t->sensor;
+  const hv_grid_t *grid = tr->grid;
+  bool matched = grid->eta == grid->eta_out; /* no reflections: the direct chain only */
+  for (int flips = 0; flips < 8; ++flips) {
+    if (matched && flips != 0) break;
+    double w0[3];
+    bool redundant = false;
+    for (int a = 0; a < 3; ++a) {
+      bool flip = (flips >> a) & 1;
+      if (flip && s->dir_in[a] == 0.0) redundant = true; /* same direction as another pattern */
+      w0[a] = flip ? -s->dir_in[a] : s->dir_in[a];
+    }
+    if (redundant) continue;
+    double cos_theta = d_in[0] * w0[0] + d_in[1] * w0[1] + d_in[2] * w0[2];
+    double start = w * hv_hg_eval(g, cos_theta);
+    if (!(start > 0.0)) continue;
+    hv_ray_t r = *vertex;
+    memcpy(r.d, w0, sizeof r.d);
+    hv_ray_locate(grid, &r);
+    double throughput = start, length = 0.0;
+    int state = flips;
+    for (int bounce = 0; bounce <= HV_CHAIN_MAX_BOUNCES; ++bounce) {
+      double dist;
+      hetinv_face_t face;
+      double depth = hv_ray_to_boundary(grid, &r, &dist, &face, NULL);
+      throughput *= exp(-depth);
+      length += dist;
+      int a = hv_face_axis(face);
+      if (state == 0 && face == s->face) {
+        int32_t pixel = hv_sensor_pixel_at(s, r.p);
+        if (pixel >= 0) splat_rows(plan, t, values, pixel, tau + length, throughput * s->connection_scale);
+      }
+      /* What the face reflects travels on, flipped along its axis. */
+      throughput *= t->reflectance[a];
+      if (throughput < HV_CHAIN_CUTOFF * start) break;
+      r.d[a] = -r.d[a];
+      state ^= 1 << a;
+      hv_ray_locate(grid, &r);
+    }
+  }
+}
+
+/* A photon that reaches the boundary from inside: returns 1 if it leaves
+ * (and scores it), 0 if it is reflected back (r->d updated). */
+static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng,
+                          hv_ray_t *r, hetinv_face_t face, double w, double tau, int32_t scatterings,
+                          hv_tally_t *tally) {
+  const hv_grid_t *grid = tr->grid;
+  int a = hv_face_axis(face);
+  double cos_i = fabs(r->d[a]), cos_t;
+  double eta = grid->eta_out / grid->eta;
+  double R = hv_fresnel_dielectric(cos_i, eta, &cos_t);
+  if (R > 0.0 && (R >= 1.0 || hv_rng_uniform(rng) < R)) {
+    r->d[a] = -r->d[a];
+    hv_ray_locate(grid, r);
+    return 0;
+  }
+  tally->stats[HV_STAT_ESCAPED + face] += w;
+  bool counted = scatterings >= tr->min_scattering &&
+                 (tr->max_scattering == 0 || scatterings <= tr->max_scattering);
+  if (!counted) return 1;
+  for (int32_t i = 0; i < plan->hemi_count; ++i) {
+    const hv_sensor_target_t *t = &plan->hemi[i];
+    if (t->sensor->face != face || hv_sensor_pixel_at(t->sensor, r->p) < 0) continue;
+    splat_rows(plan, t, tally->values, 0, tau, w);
+    if (scatterings == 0 && tally->ballistic) splat_rows(plan, t, tally->ballistic, 0, tau, w);
+  }
+  if (scatterings == 0 && tally->ballistic && plan->ortho_count > 0) {
+    /* Unscattered light is a Dirac in direction: it reaches an orthographic
+     * sensor only if it leaves exactly along the sensor's direction. */
+    double n[3], out[3];
+    hv_face_normal(face, n);
+    hv_refract_cos(r->d, n, eta, cos_t, out);
+    for (int32_t i = 0; i < plan->ortho_count; ++i) {
+      const hv_sensor_target_t *t = &plan->ortho[i];
+      const double *so = t->sensor->dir_out;
+      double c = out[0] * so[0] + out[1] * so[1] + out[2] * so[2];
+      if (t->sensor->face != face || c < 1.0 - 1e-12) continue;
+      int32_t pixel = hv_sensor_pixel_at(t->sensor, r->p);
+      if (pixel >= 0) splat_rows(plan, t, tally->ballistic, pixel, tau, w * t->sensor->ballistic_scale);
+    }
+  }
+  return 1;
+}
+
+void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
+  const hv_grid_t *grid = tr->grid;
+  hv_launch_t launch;
+  hv_emitter_sample(plan->emitter, rng, &launch);
+
+  /* Refraction into the medium; what the first surface reflects never enters. */
+  double n[3], cos_t;
+  hv_face_normal(launch.face, n);
+  double eta_in = grid->eta / grid->eta_out;
+  double R = hv_fresnel_dielectric(fabs(launch.direction[hv_face_axis(launch.face)]), eta_in, &cos_t);
+  tally->stats[HV_STAT_SPECULAR] += launch.weight * R;
+  double w = launch.weight * (1.0 - R);
+  if (!(w > 0.0)) return;
+  hv_ray_t r;
+  memcpy(r.p, launch.point, sizeof r.p);
+  hv_refract_cos(launch.direction, n, eta_in, cos_t, r.d);
+  hv_ray_locate(grid, &r);
+
+  double tau = 0.0;
+  int32_t scatterings = 0;
+  for (;;) {
+    double dist;
+    hetinv_face_t face;
+    int collided = hv_ray_march(grid, &r, -log(hv_rng_uniform_open(rng)), &dist, &face, NULL);
+    tau += dist;
+    if (!collided) {
+      if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) return;
+      continue;
+    }
+    ++scatterings;
+    double albedo = grid->albedo[r.k];
+    tally->stats[HV_STAT_ABSORBED] += w * (1.0 - albedo);
+    w *= albedo;
+    if (tr->max_scattering > 0 && scatterings > tr->max_scattering) {
+      tally->stats[HV_STAT_TRUNCATED] += w;
+      return;
+    }
+    double g = grid->g[r.k];
+    if (scatterings >= tr->min_scattering) {
+      for (int32_t i = 0; i < plan->ortho_count; ++i) {
+        connect_sensor(tr, plan, &plan->ortho[i], &r, r.d, w, g, tau, tally->values);
+      }
+    }
+    double d_new[3];
+    hv_phase_sample((hv_phase_t){HV_PHASE_HG, g}, r.d, hv_rng_uniform(rng), hv_rng_uniform(rng), d_new);
+    memcpy(r.d, d_new, sizeof r.d);
+    if (w < tr->roulette_weight) {
+      if (hv_rng_uniform(rng) >= tr->roulette_survival) return;
+      w /= tr->roulette_survival;
+    }
+  }
+}
