@@ -1,8 +1,10 @@
 #!/bin/sh
 # Installs what is missing, then builds and runs the whole test suite:
 #  1. every test under AddressSanitizer + UndefinedBehaviorSanitizer, warnings
-#     as errors (build-test/);
-#  2. the libFuzzer harnesses, built with clang, each for a short smoke run
+#     as errors (build-test/); Monte Carlo validation tests at reduced size;
+#  2. the Monte Carlo validation tests at full size in an optimised build
+#     (build-release/);
+#  3. the libFuzzer harnesses, built with clang, each for a short smoke run
 #     (build-fuzz/).
 # Ends with one line "hetinv: N passed, M failed".
 set -eu
@@ -38,6 +40,11 @@ echo "== sanitizer build (ASan + UBSan, -Werror)"
 cmake -S . -B build-test -DCMAKE_BUILD_TYPE=Debug -DHETINV_SANITIZE=ON -DHETINV_WERROR=ON >/dev/null
 cmake --build build-test -j"$jobs"
 run_suite build-test
+
+echo "== optimised build: validation at full size"
+cmake -S . -B build-release -DCMAKE_BUILD_TYPE=Release -DHETINV_WERROR=ON >/dev/null
+cmake --build build-release -j"$jobs"
+run_suite build-release -L validation
 
 echo "== fuzz build (clang, libFuzzer)"
 CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DHETINV_BUILD_FUZZERS=ON \

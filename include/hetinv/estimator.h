@@ -31,6 +31,7 @@
 #include "hetinv/export.h"
 #include "hetinv/measurement.h"
 #include "hetinv/medium.h"
+#include "hetinv/param.h"
 #include "hetinv/result.h"
 
 #ifdef __cplusplus
@@ -65,7 +66,10 @@ enum hetinv_estimator_param_id {
   /** Random stream id (default 0; integer in [0, 65535]): renders with
    *  different streams are independent, with the same stream identical. */
   HETINV_ESTIMATOR_STREAM = 6,
-  HETINV_ESTIMATOR_PARAM_COUNT_ = 7 /**< not a parameter: one past the last */
+  /** Epoch (default 0; integer in [0, 2^53]): mixed into the context's seed,
+   *  so an optimiser can draw fresh paths at every iteration. */
+  HETINV_ESTIMATOR_EPOCH = 7,
+  HETINV_ESTIMATOR_PARAM_COUNT_ = 8 /**< not a parameter: one past the last */
 };
 
 /**
@@ -156,6 +160,58 @@ HETINV_API hetinv_result_t hetinv_estimator_render(hetinv_estimator_t *estimator
                                                    const hetinv_measurements_t *set,
                                                    double *values, double *std_errors,
                                                    double *ballistic, size_t count);
+
+/**
+ * @brief Vector–Jacobian product of the rendered values: for every entry k
+ *        of π, grad[k] = Σ_n cotangent[n] · ∂I_n/∂π_k (Eq. 20), estimated
+ *        by score functions (Eqs. 17–19) on paths of the estimator's current
+ *        stream. With a one-hot cotangent this is one row of the Jacobian G
+ *        (never formed: the cost is a small constant times a render).
+ *
+ * A path's score is the sum over its segments of -ℓ_k (∂/∂σa_k and
+ * ∂/∂σs_k), over its scattering vertices of 1/σs_k (∂/∂σs_k) and
+ * ∂ log f_HG/∂g_k (∂/∂g_k), next-event connection segments and the
+ * connection's phase included; Fresnel events and Russian roulette do not
+ * depend on π. Values of orthographic sensors do not include ballistic light,
+ * and neither do their gradients. Bitwise deterministic like the render.
+ * @param estimator the estimator.
+ * @param medium committed medium (as for hetinv_estimator_render()).
+ * @param set the measurement set.
+ * @param cotangent @p count finite weights, in the set's value layout.
+ * @param count the set's value count.
+ * @param map parameter map made for the medium's grid.
+ * @param[out] grad receives hetinv_param_map_size(map) values.
+ * @param[out] grad_std_errors their Monte Carlo standard errors; may be NULL.
+ * @param grad_count length of @p grad (and @p grad_std_errors).
+ * @return as hetinv_estimator_render(), plus HETINV_ERROR_INVALID_ARGUMENT
+ *         for a non-finite cotangent, a map of another grid or a wrong
+ *         grad_count.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_gradient(
+    hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
+    const double *cotangent, size_t count, const hetinv_param_map_t *map, double *grad,
+    double *grad_std_errors, size_t grad_count);
+
+/**
+ * @brief Appearance-matching loss of Eq. (9) and its stochastic gradient.
+ *
+ * Renders I with the estimator's stream s, forms the loss
+ * Σ_n mask_n·w_n·(I_n − Ī_n)² with the set's measured values Ī, weights w
+ * and mask, then estimates its gradient from independent paths of stream
+ * (s + 1) mod 65536, with cotangent 2·mask·w·(I − Ī) (Eqs. 21–22).
+ * @param estimator the estimator.
+ * @param medium committed medium.
+ * @param set the measurement set holding the measured values.
+ * @param map parameter map made for the medium's grid.
+ * @param[out] loss receives the loss; may be NULL.
+ * @param[out] rendered receives the rendered values (value_count); may be NULL.
+ * @param[out] grad receives hetinv_param_map_size(map) values.
+ * @param grad_count length of @p grad.
+ * @return as hetinv_estimator_gradient().
+ */
+HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
+    hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
+    const hetinv_param_map_t *map, double *loss, double *rendered, double *grad, size_t grad_count);
 
 /**
  * @brief Statistics of the last successful render.

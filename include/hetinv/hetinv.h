@@ -18,6 +18,7 @@
 #include "hetinv/io.h"
 #include "hetinv/sampling.h"
 #include "hetinv/measurement.h"
+#include "hetinv/param.h"
 #include "hetinv/estimator.h"
 
 #endif /* HETINV_HETINV_H */

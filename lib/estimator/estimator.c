@@ -20,6 +20,7 @@ static const struct {
     [HETINV_ESTIMATOR_MIN_SCATTERING] = {"HETINV_ESTIMATOR_MIN_SCATTERING", 0, 1e9, 0, true},
     [HETINV_ESTIMATOR_MAX_SCATTERING] = {"HETINV_ESTIMATOR_MAX_SCATTERING", 0, 1e9, 0, true},
     [HETINV_ESTIMATOR_STREAM] = {"HETINV_ESTIMATOR_STREAM", 0, 65535, 0, true},
+    [HETINV_ESTIMATOR_EPOCH] = {"HETINV_ESTIMATOR_EPOCH", 0, 9007199254740992.0 /* 2^53 */, 0, true},
 };
 
 HETINV_API hetinv_result_t hetinv_estimator_create(hetinv_context_t *ctx, hetinv_estimator_t **out) {

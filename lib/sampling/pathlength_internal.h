@@ -18,33 +18,47 @@ struct hetinv_pathlength {
   int32_t *bin_of;   /* bin index of each sorted centre */
 };
 
+/* Calls BODY with `bin` and `weight` = W_τ(tau) for every bin whose window
+ * reaches tau (the one bin 0 for steady state). */
+#define HV_FOR_EACH_BIN(pl, tau, BODY) \
+  do { \
+    if ((pl)->steady) { \
+      int32_t bin = 0; \
+      double weight = 1.0; \
+      BODY \
+      break; \
+    } \
+    /* First sorted centre > tau - reach, by bisection. */ \
+    double lo_c_ = (tau) - (pl)->reach; \
+    int32_t lo_ = 0, hi_ = (pl)->count; \
+    while (lo_ < hi_) { \
+      int32_t mid_ = lo_ + (hi_ - lo_) / 2; \
+      if ((pl)->sorted[mid_] > lo_c_) hi_ = mid_; else lo_ = mid_ + 1; \
+    } \
+    for (int32_t i_ = lo_; i_ < (pl)->count; ++i_) { \
+      /* box bin [c - w/2, c + w/2) holds tau iff tau - c in [-w/2, w/2); \
+       * the bisection already gave tau - c < reach */ \
+      double x_ = (tau) - (pl)->sorted[i_]; \
+      if (x_ < -(pl)->reach || ((pl)->window != HETINV_WINDOW_BOX && x_ <= -(pl)->reach)) break; \
+      int32_t bin = (pl)->bin_of[i_]; \
+      double z_ = x_ / (pl)->width; \
+      double weight = (pl)->window == HETINV_WINDOW_BOX ? 1.0 : exp(-0.5 * z_ * z_); \
+      BODY \
+    } \
+  } while (0)
+
 /* Adds value·W_τ(tau) of every bin to dst[bin·stride]. */
 static inline void hv_pathlength_splat(const hetinv_pathlength_t *pl, double tau, double value,
                                        double *dst, int32_t stride) {
-  if (pl->steady) {
-    dst[0] += value;
-    return;
-  }
-  /* First sorted centre > tau - reach, by bisection. */
-  double lo_c = tau - pl->reach;
-  int32_t lo = 0, hi = pl->count;
-  while (lo < hi) {
-    int32_t mid = lo + (hi - lo) / 2;
-    if (pl->sorted[mid] > lo_c) hi = mid; else lo = mid + 1;
-  }
-  for (int32_t i = lo; i < pl->count; ++i) {
-    double x = tau - pl->sorted[i];
-    if (pl->window == HETINV_WINDOW_BOX) {
-      /* bin [c - w/2, c + w/2) holds τ iff τ - c ∈ [-w/2, w/2); the bisection
-       * already gave τ - c < w/2. */
-      if (x < -pl->reach) break;
-      dst[(size_t)pl->bin_of[i] * (size_t)stride] += value;
-    } else {
-      if (x <= -pl->reach) break;
-      double z = x / pl->width;
-      dst[(size_t)pl->bin_of[i] * (size_t)stride] += value * exp(-0.5 * z * z);
-    }
-  }
+  HV_FOR_EACH_BIN(pl, tau, { dst[(size_t)bin * (size_t)stride] += value * weight; });
+}
+
+/* Σ_bins W_τ(tau)·src[bin·stride]: the splat's weight under a cotangent. */
+static inline double hv_pathlength_dot(const hetinv_pathlength_t *pl, double tau,
+                                       const double *src, int32_t stride) {
+  double sum = 0.0;
+  HV_FOR_EACH_BIN(pl, tau, { sum += weight * src[(size_t)bin * (size_t)stride]; });
+  return sum;
 }
 
 #endif

@@ -9,6 +9,7 @@
 
 #include "hetinv/medium.h"
 #include "hetinv/sampling.h"
+#include "transport/path_log.h"
 
 typedef struct hv_grid {
   double lo[3], hi[3];
@@ -48,10 +49,6 @@ static inline void hv_ray_locate(const hv_grid_t *g, hv_ray_t *r) {
     r->k += (int64_t)i * g->stride[a];
   }
 }
-
-/* Per-voxel segment log for gradient scores: NULL in the forward pass. */
-typedef struct hv_segment_sink hv_segment_sink_t;
-void hv_segment_sink_add(hv_segment_sink_t *sink, int64_t voxel, double length);
 
 /* Amanatides–Woo stepping state of a ray in its current voxel. */
 typedef struct hv_dda {
@@ -106,9 +103,9 @@ static inline int hv_dda_advance(const hv_grid_t *g, hv_ray_t *r, hv_dda_t *s, i
 /* Free flight: moves the ray until it has crossed optical depth @p depth
  * (returns 1: a collision at r->p) or reaches the boundary (returns 0: r->p
  * on face *face). *dist receives the distance travelled; r->k is the voxel
- * at the end. Segments go to @p sink when it is not NULL. */
+ * at the end. Segments go to @p log when it is not NULL. */
 static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth, double *dist,
-                               hetinv_face_t *face, hv_segment_sink_t *sink) {
+                               hetinv_face_t *face, hv_path_log_t *log) {
   hv_dda_t s;
   hv_dda_init(g, r, &s);
   double t = 0.0;
@@ -117,13 +114,13 @@ static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth, do
     double seg = s.t_next[a] - t, st = g->sigma_t[r->k];
     if (st * seg >= depth) { /* collision inside this voxel */
       double x = depth / st;
-      if (sink) hv_segment_sink_add(sink, r->k, x);
+      if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
       t += x;
       for (int i = 0; i < 3; ++i) r->p[i] += t * r->d[i];
       *dist = t;
       return 1;
     }
-    if (sink) hv_segment_sink_add(sink, r->k, seg);
+    if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, seg);
     depth -= st * seg;
     t = s.t_next[a];
     if (!hv_dda_advance(g, r, &s, a, t, face)) {
@@ -136,14 +133,14 @@ static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth, do
 /* Moves the ray straight to the boundary; returns the optical depth crossed
  * and sets *dist and *face. */
 static inline double hv_ray_to_boundary(const hv_grid_t *g, hv_ray_t *r, double *dist,
-                                        hetinv_face_t *face, hv_segment_sink_t *sink) {
+                                        hetinv_face_t *face, hv_path_log_t *log) {
   hv_dda_t s;
   hv_dda_init(g, r, &s);
   double t = 0.0, depth = 0.0;
   for (;;) {
     int a = hv_dda_axis(&s);
     double seg = s.t_next[a] - t;
-    if (sink) hv_segment_sink_add(sink, r->k, seg);
+    if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, seg);
     depth += g->sigma_t[r->k] * seg;
     t = s.t_next[a];
     if (!hv_dda_advance(g, r, &s, a, t, face)) {

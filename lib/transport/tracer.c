@@ -15,27 +15,37 @@
 #define HV_CHAIN_CUTOFF 1e-7
 #define HV_CHAIN_MAX_BOUNCES 64
 
-/* Adds value at pathlength tau to pixel `pixel` of every row of target t. */
-static void splat_rows(const hv_plan_t *plan, const hv_sensor_target_t *t, double *dst,
-                       int32_t pixel, double tau, double value) {
+/* Scores contribution `value` at pathlength tau into pixel `pixel` of every
+ * row of target t: added to dst (forward), or, in gradient mode, weighed by
+ * the cotangent and added to the splat total of `log`. */
+static void score(const hv_plan_t *plan, const hv_sensor_target_t *t, hv_tally_t *tally,
+                  double *dst, hv_path_log_t *log, int32_t pixel, double tau, double value) {
   for (int32_t i = 0; i < t->row_count; ++i) {
     const hv_row_target_t *row = &plan->rows[t->first_row + i];
-    hv_pathlength_splat(row->pathlength, tau, value, dst + row->offset + pixel, row->pixels);
+    if (tally->grad) {
+      log->cum += value * hv_pathlength_dot(row->pathlength, tau,
+                                            tally->grad->cotangent + row->offset + pixel, row->pixels);
+    } else {
+      hv_pathlength_splat(row->pathlength, tau, value, dst + row->offset + pixel, row->pixels);
+    }
   }
 }
 
 /* Next-event connection from scattering vertex r (direction of arrival
- * d_in, weight w after the albedo, phase g, pathlength tau so far) to the
- * orthographic sensor of target t. The light leaves along the sensor's
+ * d_in, weight w after the albedo, anisotropy g, pathlength tau so far) to
+ * the orthographic sensor of target t. The light leaves along the sensor's
  * interior direction ω_i, possibly after specular reflections at other
  * faces (or at the sensor's face itself): each chain starts along a sign
  * flip of ω_i and ends when it reaches the sensor face travelling along
  * ω_i; every chain is followed until its throughput is negligible. */
 static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
                            const hv_sensor_target_t *t, const hv_ray_t *vertex,
-                           const double d_in[3], double w, double g, double tau, double *values) {
+                           const double d_in[3], double w, double g, double tau,
+                           hv_tally_t *tally) {
   const hetinv_sensor_t *s = t->sensor;
   const hv_grid_t *grid = tr->grid;
+  hv_grad_tally_t *gt = tally->grad;
+  hv_path_log_t *chain = gt ? &gt->chain : NULL;
   bool matched = grid->eta == grid->eta_out; /* no reflections: the direct chain only */
   for (int flips = 0; flips < 8; ++flips) {
     if (matched && flips != 0) break;
@@ -50,6 +60,7 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
     double cos_theta = d_in[0] * w0[0] + d_in[1] * w0[1] + d_in[2] * w0[2];
     double start = w * hv_hg_eval(g, cos_theta);
     if (!(start > 0.0)) continue;
+    if (chain) hv_path_log_reset(chain);
     hv_ray_t r = *vertex;
     memcpy(r.d, w0, sizeof r.d);
     hv_ray_locate(grid, &r);
@@ -58,13 +69,16 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
     for (int bounce = 0; bounce <= HV_CHAIN_MAX_BOUNCES; ++bounce) {
       double dist;
       hetinv_face_t face;
-      double depth = hv_ray_to_boundary(grid, &r, &dist, &face, NULL);
+      double depth = hv_ray_to_boundary(grid, &r, &dist, &face, chain);
       throughput *= exp(-depth);
       length += dist;
       int a = hv_face_axis(face);
       if (state == 0 && face == s->face) {
         int32_t pixel = hv_sensor_pixel_at(s, r.p);
-        if (pixel >= 0) splat_rows(plan, t, values, pixel, tau + length, throughput * s->connection_scale);
+        if (pixel >= 0) {
+          score(plan, t, tally, tally->values, chain, pixel, tau + length,
+                throughput * s->connection_scale);
+        }
       }
       /* What the face reflects travels on, flipped along its axis. */
       throughput *= t->reflectance[a];
@@ -72,6 +86,13 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
       r.d[a] = -r.d[a];
       state ^= 1 << a;
       hv_ray_locate(grid, &r);
+    }
+    if (chain && chain->cum != 0.0) {
+      /* The chain's own segments and the vertex's phase toward w0 score only
+       * this chain's splats; its total joins the path's splats. */
+      hv_path_log_apply(chain, gt->grad, gt->voxels);
+      gt->grad[2 * gt->voxels + vertex->k] += hv_hg_dlog_dg(g, cos_theta) * chain->cum;
+      gt->path.cum += chain->cum;
     }
   }
 }
@@ -95,15 +116,17 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
   bool counted = scatterings >= tr->min_scattering &&
                  (tr->max_scattering == 0 || scatterings <= tr->max_scattering);
   if (!counted) return 1;
+  hv_path_log_t *log = tally->grad ? &tally->grad->path : NULL;
   for (int32_t i = 0; i < plan->hemi_count; ++i) {
     const hv_sensor_target_t *t = &plan->hemi[i];
     if (t->sensor->face != face || hv_sensor_pixel_at(t->sensor, r->p) < 0) continue;
-    splat_rows(plan, t, tally->values, 0, tau, w);
-    if (scatterings == 0 && tally->ballistic) splat_rows(plan, t, tally->ballistic, 0, tau, w);
+    score(plan, t, tally, tally->values, log, 0, tau, w);
+    if (scatterings == 0 && tally->ballistic) score(plan, t, tally, tally->ballistic, log, 0, tau, w);
   }
   if (scatterings == 0 && tally->ballistic && plan->ortho_count > 0) {
     /* Unscattered light is a Dirac in direction: it reaches an orthographic
-     * sensor only if it leaves exactly along the sensor's direction. */
+     * sensor only if it leaves exactly along the sensor's direction. It is
+     * reported apart from the values, and has no gradient. */
     double n[3], out[3];
     hv_face_normal(face, n);
     hv_refract_cos(r->d, n, eta, cos_t, out);
@@ -113,14 +136,16 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
       double c = out[0] * so[0] + out[1] * so[1] + out[2] * so[2];
       if (t->sensor->face != face || c < 1.0 - 1e-12) continue;
       int32_t pixel = hv_sensor_pixel_at(t->sensor, r->p);
-      if (pixel >= 0) splat_rows(plan, t, tally->ballistic, pixel, tau, w * t->sensor->ballistic_scale);
+      if (pixel >= 0) score(plan, t, tally, tally->ballistic, log, pixel, tau, w * t->sensor->ballistic_scale);
     }
   }
   return 1;
 }
 
-void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
+/* The photon loop proper; hv_trace_photon wraps it with the score log. */
+static void trace(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
   const hv_grid_t *grid = tr->grid;
+  hv_path_log_t *log = tally->grad ? &tally->grad->path : NULL;
   hv_launch_t launch;
   hv_emitter_sample(plan->emitter, rng, &launch);
 
@@ -142,7 +167,7 @@ void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng
   for (;;) {
     double dist;
     hetinv_face_t face;
-    int collided = hv_ray_march(grid, &r, -log(hv_rng_uniform_open(rng)), &dist, &face, NULL);
+    int collided = hv_ray_march(grid, &r, -log1p(-hv_rng_uniform(rng)), &dist, &face, log);
     tau += dist;
     if (!collided) {
       if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) return;
@@ -152,22 +177,33 @@ void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng
     double albedo = grid->albedo[r.k];
     tally->stats[HV_STAT_ABSORBED] += w * (1.0 - albedo);
     w *= albedo;
+    if (!(w > 0.0)) return; /* a purely absorbing voxel */
     if (tr->max_scattering > 0 && scatterings > tr->max_scattering) {
       tally->stats[HV_STAT_TRUNCATED] += w;
       return;
     }
+    if (log) hv_path_log_add(log, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
     double g = grid->g[r.k];
     if (scatterings >= tr->min_scattering) {
       for (int32_t i = 0; i < plan->ortho_count; ++i) {
-        connect_sensor(tr, plan, &plan->ortho[i], &r, r.d, w, g, tau, tally->values);
+        connect_sensor(tr, plan, &plan->ortho[i], &r, r.d, w, g, tau, tally);
       }
     }
     double d_new[3];
-    hv_phase_sample((hv_phase_t){HV_PHASE_HG, g}, r.d, hv_rng_uniform(rng), hv_rng_uniform(rng), d_new);
+    double cos_theta = hv_phase_sample((hv_phase_t){HV_PHASE_HG, g}, r.d, hv_rng_uniform(rng),
+                                       hv_rng_uniform(rng), d_new);
+    if (log) hv_path_log_add(log, HV_LOG_PHASE, r.k, hv_hg_dlog_dg(g, cos_theta));
     memcpy(r.d, d_new, sizeof r.d);
     if (w < tr->roulette_weight) {
       if (hv_rng_uniform(rng) >= tr->roulette_survival) return;
       w /= tr->roulette_survival;
     }
   }
+}
+
+void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
+  hv_grad_tally_t *gt = tally->grad;
+  if (gt) hv_path_log_reset(&gt->path);
+  trace(tr, plan, rng, tally);
+  if (gt) hv_path_log_apply(&gt->path, gt->grad, gt->voxels);
 }

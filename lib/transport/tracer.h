@@ -25,10 +25,21 @@ typedef struct hv_tracer {
   int32_t min_scattering, max_scattering; /* max 0: unlimited */
 } hv_tracer_t;
 
+/* Gradient mode: instead of adding contributions c to values, each splat
+ * weighs c by the cotangent (Σ over bins of cot·W_τ) and the path's scores
+ * go to the voxel gradient (3 blocks of `voxels`: σa, σs, g). */
+typedef struct hv_grad_tally {
+  const double *cotangent; /* the set's value layout */
+  double *grad;
+  size_t voxels;
+  hv_path_log_t path, chain; /* scratch of the current path and connection */
+} hv_grad_tally_t;
+
 /* Where one batch of photons adds what it scores. */
 typedef struct hv_tally {
-  double *values;    /* the set's value layout */
+  double *values;    /* the set's value layout (forward mode) */
   double *ballistic; /* same layout, or NULL */
+  hv_grad_tally_t *grad; /* NULL: forward mode */
   double stats[HV_STAT_COUNT];
 } hv_tally_t;
 

@@ -1,0 +1,100 @@
+#include "estimator/pass.h"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "core/context_internal.h"
+#include "core/error.h"
+#include "estimator/batches.h"
+#include "medium/medium_internal.h"
+#include "sampling/measurements_internal.h"
+
+/* Epoch 0 keeps the context's seed; others map (seed, epoch) to a new key
+ * through SplitMix64's finaliser. */
+static uint64_t hv_mix_seed(uint64_t seed, uint64_t epoch) {
+  if (epoch == 0) return seed;
+  uint64_t z = seed ^ (epoch * 0x9e3779b97f4a7c15ULL);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+double hv_now_seconds(void) {
+#ifdef _OPENMP
+  return omp_get_wtime();
+#else
+  return 0.0;
+#endif
+}
+
+hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
+                              const hetinv_measurements_t *set, size_t count, const char *func,
+                              hv_pass_t *pass) {
+  if (est == NULL) return hv_fail(NULL, HETINV_ERROR_NULL_ARGUMENT, func, "'estimator' is NULL");
+  const hetinv_context_t *ctx = est->ctx;
+  if (medium == NULL) return hv_fail(ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'medium' is NULL");
+  if (set == NULL) return hv_fail(ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'set' is NULL");
+  if (!medium->committed) {
+    return hv_fail(ctx, HETINV_ERROR_INVALID_STATE, func, "the medium is not committed");
+  }
+  if (set->row_count == 0) {
+    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func, "the measurement set has no rows");
+  }
+  if (count != set->value_count) {
+    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+                   "count is %zu; the measurement set has %zu values", count, set->value_count);
+  }
+  hv_geometry_t geo;
+  hv_geometry_of(medium, &geo);
+  if (!hv_geometry_equal(&geo, &set->geo)) {
+    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+                   "the medium's box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g differs from "
+                   "the box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g the set was made for",
+                   geo.lo[0], geo.hi[0], geo.lo[1], geo.hi[1], geo.lo[2], geo.hi[2], geo.eta,
+                   geo.eta_out, set->geo.lo[0], set->geo.hi[0], set->geo.lo[1], set->geo.hi[1],
+                   set->geo.lo[2], set->geo.hi[2], set->geo.eta, set->geo.eta_out);
+  }
+  *pass = (hv_pass_t){.ctx = ctx, .start_seconds = hv_now_seconds()};
+  hetinv_result_t r = hv_grid_build(medium, func, &pass->grid);
+  if (r != HETINV_SUCCESS) return r;
+  r = hv_plans_build(set, func, &pass->plans);
+  if (r != HETINV_SUCCESS) {
+    hv_grid_release(&pass->grid);
+    return r;
+  }
+  const double *param = est->param;
+  pass->tracer = (hv_tracer_t){
+      .grid = &pass->grid,
+      .roulette_weight = param[HETINV_ESTIMATOR_ROULETTE_WEIGHT],
+      .roulette_survival = param[HETINV_ESTIMATOR_ROULETTE_SURVIVAL],
+      .min_scattering = (int32_t)param[HETINV_ESTIMATOR_MIN_SCATTERING],
+      .max_scattering = (int32_t)param[HETINV_ESTIMATOR_MAX_SCATTERING],
+  };
+  pass->seed = hv_mix_seed(ctx->seed, (uint64_t)param[HETINV_ESTIMATOR_EPOCH]);
+  pass->photons = (uint64_t)param[HETINV_ESTIMATOR_PHOTONS];
+  pass->stream = (uint32_t)param[HETINV_ESTIMATOR_STREAM];
+  pass->batches = (int32_t)param[HETINV_ESTIMATOR_BATCHES];
+  if ((uint64_t)pass->batches > pass->photons) pass->batches = (int32_t)pass->photons;
+  pass->threads = ctx->thread_count;
+  return HETINV_SUCCESS;
+}
+
+void hv_pass_end(hv_pass_t *pass) {
+  hv_plans_release(&pass->plans);
+  hv_grid_release(&pass->grid);
+}
+
+double hv_pass_batch_size(const hv_pass_t *pass, int32_t b) {
+  return (double)(hv_batch_begin(pass->photons, pass->batches, b + 1) -
+                  hv_batch_begin(pass->photons, pass->batches, b));
+}
+
+void hv_pass_trace_batch(const hv_pass_t *pass, int32_t e, int32_t b, hv_tally_t *tally) {
+  const hv_plan_t *plan = &pass->plans.plan[e];
+  uint64_t end = hv_batch_begin(pass->photons, pass->batches, b + 1);
+  for (uint64_t p = hv_batch_begin(pass->photons, pass->batches, b); p < end; ++p) {
+    hv_rng_t rng = hv_rng_init(pass->seed, plan->key, p, pass->stream);
+    hv_trace_photon(&pass->tracer, plan, &rng, tally);
+  }
+}

@@ -1,0 +1,42 @@
+/* What the forward and gradient passes share: validation of a render call
+ * and the grid, plans and tracer built for it. */
+#ifndef HV_PASS_H
+#define HV_PASS_H
+
+#include "estimator/estimator_internal.h"
+#include "transport/tracer.h"
+
+typedef struct hv_pass {
+  const hetinv_context_t *ctx;
+  hv_grid_t grid;
+  hv_plans_t plans;
+  hv_tracer_t tracer;
+  uint64_t seed, photons;
+  uint32_t stream;
+  int32_t batches;
+  int threads;
+  double start_seconds;
+} hv_pass_t;
+
+/* Validates (estimator, medium, set, count) and builds the pass; on failure
+ * nothing needs releasing. */
+hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
+                              const hetinv_measurements_t *set, size_t count, const char *func,
+                              hv_pass_t *pass);
+void hv_pass_end(hv_pass_t *pass);
+
+/* Traces batch b's photons [hv_batch_begin(b), hv_batch_begin(b+1)) of
+ * plan (emitter) e into tally. */
+void hv_pass_trace_batch(const hv_pass_t *pass, int32_t e, int32_t b, hv_tally_t *tally);
+
+/* Photons in batch b. */
+double hv_pass_batch_size(const hv_pass_t *pass, int32_t b);
+
+double hv_now_seconds(void);
+
+/* The forward pass on a pass already begun (render.c); fills est's stats. */
+hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, double *values,
+                               double *std_errors, double *ballistic, size_t count,
+                               const char *func);
+
+#endif

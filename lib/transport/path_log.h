@@ -1,0 +1,51 @@
+/* The score log of one path, for score-function gradients (Eqs. 17–22).
+ *
+ * A path's contribution f factors into per-segment transmittances
+ * exp(-σt·ℓ), per-vertex σs and phase values. Each factor's log-derivative
+ * (the entry's "local score") applies to every splat made after it on the
+ * path. Entries record the running sum of splat weights (r·c) at the time
+ * they were logged, so that at the end of the path each entry's share is
+ * total - cum: one pass, no quadratic cost. */
+#ifndef HV_PATH_LOG_H
+#define HV_PATH_LOG_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hetinv/context.h"
+
+typedef enum hv_log_kind {
+  HV_LOG_SEGMENT, /* value = ℓ in voxel: ∂/∂σa = ∂/∂σs = -ℓ */
+  HV_LOG_SCATTER, /* value = 1/σs of the vertex's voxel: ∂/∂σs */
+  HV_LOG_PHASE,   /* value = ∂ log f_p / ∂g at the vertex */
+} hv_log_kind_t;
+
+typedef struct hv_log_entry {
+  int64_t voxel;
+  double value;
+  double cum;
+  hv_log_kind_t kind;
+} hv_log_entry_t;
+
+typedef struct hv_path_log {
+  hv_log_entry_t *entries;
+  size_t count, capacity;
+  double cum; /* splat weight so far */
+  const hetinv_context_t *ctx;
+  bool out_of_memory;
+} hv_path_log_t;
+
+void hv_path_log_add(hv_path_log_t *log, hv_log_kind_t kind, int64_t voxel, double value);
+void hv_path_log_release(hv_path_log_t *log);
+
+static inline void hv_path_log_reset(hv_path_log_t *log) {
+  log->count = 0;
+  log->cum = 0.0;
+}
+
+/* Adds every entry's score times (log->cum - entry.cum) to the voxel
+ * gradient grad (σa block, σs block, g block of `voxels` each). */
+void hv_path_log_apply(const hv_path_log_t *log, double *grad, size_t voxels);
+
+#endif
