@@ -64,7 +64,7 @@ HETINV_API hetinv_result_t hetinv_estimator_set_param(hetinv_estimator_t *estima
   if (!(value >= params[param].lo && value <= params[param].hi) ||
       (params[param].integer && value != floor(value))) {
     return HV_FAIL(estimator->ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "%s is %g; it must be %s in [%g, %g]", params[param].name, value,
+                   "%s is %.17g; it must be %s in [%.17g, %.17g]", params[param].name, value,
                    params[param].integer ? "an integer" : "a number", params[param].lo,
                    params[param].hi);
   }

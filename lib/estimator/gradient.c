@@ -108,9 +108,9 @@ static hetinv_result_t run_gradient(const hv_pass_t *pass, const hetinv_param_ma
     ok = !g.out_of_memory;
   }
   if (ok) {
-    double inv_n = 1.0 / (double)pass->photons;
+    double n = (double)pass->photons;
     for (size_t i = 0; i < g.k; ++i) {
-      grad[i] = g.total[i] * inv_n;
+      grad[i] = g.total[i] / n;
       if (grad_se) grad_se[i] = hv_batch_std_error(g.mean_sum[i], g.mean_sq[i], pass->batches);
     }
   }

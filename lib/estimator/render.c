@@ -62,7 +62,7 @@ static void fill_stats(hetinv_estimator_t *est, const forward_t *f) {
   *st = (hetinv_render_stats_t){.size = sizeof *st};
   int32_t emitters = pass->plans.count;
   st->photons = pass->photons * (uint64_t)emitters;
-  double scale = 1.0 / ((double)pass->photons * emitters);
+  double norm = (double)pass->photons * emitters;
   double var[HV_STAT_COUNT] = {0};
   for (int32_t e = 0; e < emitters; ++e) {
     for (int s = 0; s < HV_STAT_COUNT; ++s) {
@@ -71,14 +71,14 @@ static void fill_stats(hetinv_estimator_t *est, const forward_t *f) {
     }
   }
   /* Averages over emitters of each emitter's mean. */
-  st->specular = f->stats_total[HV_STAT_SPECULAR] * scale;
-  st->absorbed = f->stats_total[HV_STAT_ABSORBED] * scale;
+  st->specular = f->stats_total[HV_STAT_SPECULAR] / norm;
+  st->absorbed = f->stats_total[HV_STAT_ABSORBED] / norm;
   st->absorbed_std_error = sqrt(var[HV_STAT_ABSORBED]) / emitters;
   for (int face = 0; face < 6; ++face) {
-    st->escaped[face] = f->stats_total[HV_STAT_ESCAPED + face] * scale;
+    st->escaped[face] = f->stats_total[HV_STAT_ESCAPED + face] / norm;
     st->escaped_std_error[face] = sqrt(var[HV_STAT_ESCAPED + face]) / emitters;
   }
-  st->truncated = f->stats_total[HV_STAT_TRUNCATED] * scale;
+  st->truncated = f->stats_total[HV_STAT_TRUNCATED] / norm;
   st->seconds = hv_now_seconds() - pass->start_seconds;
   est->has_stats = true;
 }
@@ -120,11 +120,11 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
     hv_batch_loop_t loop = {(int64_t)pass->plans.count * pass->batches, pass->threads, &f,
                             run_item, reduce_item};
     hv_batches_run(&loop);
-    double inv_n = 1.0 / (double)pass->photons;
+    double n = (double)pass->photons;
     for (size_t k = 0; k < count; ++k) {
-      values[k] = f.total[k] * inv_n;
+      values[k] = f.total[k] / n;
       if (std_errors) std_errors[k] = hv_batch_std_error(f.mean_sum[k], f.mean_sq[k], pass->batches);
-      if (ballistic) ballistic[k] = f.ballistic[k] * inv_n;
+      if (ballistic) ballistic[k] = f.ballistic[k] / n;
     }
     fill_stats(est, &f);
   }

@@ -117,7 +117,8 @@ static hetinv_result_t build_cdf(hetinv_emitter_t *e, const char *func, const ch
   }
   if (!(sum > 0.0) || !isfinite(sum)) {
     return hv_fail(e->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
-                   "the %d %s sum to %g; they must have a finite positive sum", (int)n, what, sum);
+                   "the %d values of %s sum to %g; they must have a finite positive sum", (int)n,
+                   what, sum);
   }
   for (int32_t i = 0; i < n; ++i) e->cdf[i] /= sum;
   e->cdf[n - 1] = 1.0;
@@ -275,7 +276,7 @@ static void face_point(const hv_geometry_t *g, hetinv_face_t f, double u, double
 }
 
 void hv_emitter_sample(const hetinv_emitter_t *e, hv_rng_t *rng, hv_launch_t *out) {
-  out->weight = e->power;
+  out->weight = 1.0;
   switch (e->kind) {
     case HV_EMITTER_IDEAL:
     case HV_EMITTER_COMBINATION: {

@@ -30,7 +30,9 @@ struct hetinv_emitter {
 };
 
 /* A photon leaving the emitter: where it meets the boundary, travelling
- * along the (outside) incident direction, with its power. */
+ * along the (outside) incident direction, with its weight relative to the
+ * emitter's power (the tracer scales what it scores by the power, so that
+ * statistics and Russian roulette work in fractions of the power). */
 typedef struct hv_launch {
   double point[3];
   double direction[3];

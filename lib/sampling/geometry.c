@@ -21,24 +21,26 @@ hetinv_result_t hv_check_face(const hetinv_context_t *ctx, const char *func, het
 
 hetinv_result_t hv_normalize3(const hetinv_context_t *ctx, const char *func, const char *what,
                               const double in[3], double out[3]) {
-  double n2 = in[0] * in[0] + in[1] * in[1] + in[2] * in[2];
-  if (!isfinite(in[0]) || !isfinite(in[1]) || !isfinite(in[2]) || !(n2 > 0.0) || !isfinite(n2)) {
+  /* Scaled by the largest component first, so that no length over- or underflows. */
+  double m = fmax(fabs(in[0]), fmax(fabs(in[1]), fabs(in[2])));
+  if (!isfinite(in[0]) || !isfinite(in[1]) || !isfinite(in[2]) || !(m > 0.0)) {
     return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
                    "%s is (%g, %g, %g); it must be finite and not zero", what, in[0], in[1],
                    in[2]);
   }
-  double s = 1.0 / sqrt(n2);
-  for (int i = 0; i < 3; ++i) out[i] = in[i] * s;
+  double v[3] = {in[0] / m, in[1] / m, in[2] / m};
+  double s = 1.0 / sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  for (int i = 0; i < 3; ++i) out[i] = v[i] * s;
   return HETINV_SUCCESS;
 }
 
 bool hv_ray_enter_box(const hv_geometry_t *g, const double o[3], const double d[3], double *t,
                       hetinv_face_t *face) {
-  double t_in = 0.0, t_out = INFINITY;
+  double t_in = 0.0, t_out = HUGE_VAL;
   int axis_in = -1;
   for (int a = 0; a < 3; ++a) {
-    if (d[a] == 0.0) {
-      if (o[a] < g->lo[a] || o[a] > g->hi[a]) return false;
+    if (d[a] == 0.0) { /* parallel to these faces: must run strictly between them */
+      if (!(o[a] > g->lo[a] && o[a] < g->hi[a])) return false;
       continue;
     }
     double t0 = (g->lo[a] - o[a]) / d[a], t1 = (g->hi[a] - o[a]) / d[a];

@@ -17,8 +17,10 @@ typedef struct hv_geometry {
 void hv_geometry_of(const hetinv_medium_t *medium, hv_geometry_t *out);
 
 static inline bool hv_geometry_equal(const hv_geometry_t *a, const hv_geometry_t *b) {
-  return memcmp(a->lo, b->lo, sizeof a->lo) == 0 && memcmp(a->hi, b->hi, sizeof a->hi) == 0 &&
-         a->eta == b->eta && a->eta_out == b->eta_out;
+  for (int i = 0; i < 3; ++i) {
+    if (a->lo[i] != b->lo[i] || a->hi[i] != b->hi[i]) return false; /* -0 == +0 */
+  }
+  return a->eta == b->eta && a->eta_out == b->eta_out;
 }
 
 /* Face f lies at coordinate hv_face_plane() on axis f/2; its outward normal

@@ -37,6 +37,10 @@ static inline int32_t hv_sensor_pixel_at(const hetinv_sensor_t *s, const double 
   hv_face_uv_axes(s->face, &au, &av);
   double fu = (p[au] - s->origin[0]) / s->pixel_size[0];
   double fv = (p[av] - s->origin[1]) / s->pixel_size[1];
+  /* Pixels are half-open, but light leaving exactly through the face's far
+   * edge belongs to the pixel that ends there. */
+  if (fu == s->width && p[au] >= s->geo.hi[au]) fu = s->width - 0.5;
+  if (fv == s->height && p[av] >= s->geo.hi[av]) fv = s->height - 0.5;
   if (!(fu >= 0.0 && fv >= 0.0 && fu < s->width && fv < s->height)) return -1;
   return (int32_t)fv * s->width + (int32_t)fu;
 }

@@ -68,8 +68,8 @@ static inline void hv_dda_init(const hv_grid_t *g, const hv_ray_t *r, hv_dda_t *
       s->t_delta[a] = -g->h[a] / r->d[a];
     } else {
       s->step[a] = 0;
-      s->t_next[a] = INFINITY;
-      s->t_delta[a] = INFINITY;
+      s->t_next[a] = HUGE_VAL;
+      s->t_delta[a] = HUGE_VAL;
     }
     if (s->t_next[a] < 0.0) s->t_next[a] = 0.0; /* rounding on a voxel face */
   }

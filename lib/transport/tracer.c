@@ -20,6 +20,7 @@
  * the cotangent and added to the splat total of `log`. */
 static void score(const hv_plan_t *plan, const hv_sensor_target_t *t, hv_tally_t *tally,
                   double *dst, hv_path_log_t *log, int32_t pixel, double tau, double value) {
+  value *= plan->emitter->power;
   for (int32_t i = 0; i < t->row_count; ++i) {
     const hv_row_target_t *row = &plan->rows[t->first_row + i];
     if (tally->grad) {

@@ -1,0 +1,240 @@
+#include "jsonread.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+int jr_fail(jr_t *jr, const char *path, const char *fmt, ...) {
+  char what[3072];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(what, sizeof what, fmt, ap);
+  va_end(ap);
+  if (path != NULL && path[0] != '\0') {
+    snprintf(jr->message, sizeof jr->message, "%s: %s: %s", jr->file, path, what);
+  } else {
+    snprintf(jr->message, sizeof jr->message, "%s: %s", jr->file, what);
+  }
+  return -1;
+}
+
+/* Marks a path cut short by the buffer with "..." at its end. */
+static void mark_truncated(char out[JR_PATH_MAX], int written) {
+  if (written < 0 || written >= JR_PATH_MAX) memcpy(out + JR_PATH_MAX - 4, "...", 4);
+}
+
+void jr_key(char out[JR_PATH_MAX], const char *parent, const char *key) {
+  int n;
+  if (parent == NULL || parent[0] == '\0') {
+    n = snprintf(out, JR_PATH_MAX, "%s", key);
+  } else {
+    n = snprintf(out, JR_PATH_MAX, "%s.%s", parent, key);
+  }
+  mark_truncated(out, n);
+}
+
+void jr_index(char out[JR_PATH_MAX], const char *parent, int index) {
+  mark_truncated(out, snprintf(out, JR_PATH_MAX, "%s[%d]", parent, index));
+}
+
+const char *jr_describe(const cJSON *item, char *buf, size_t size) {
+  if (item == NULL) {
+    snprintf(buf, size, "nothing");
+  } else if (cJSON_IsNumber(item)) {
+    snprintf(buf, size, "the number %g", item->valuedouble);
+  } else if (cJSON_IsString(item)) {
+    snprintf(buf, size, "the string \"%.40s%s\"", item->valuestring,
+             strlen(item->valuestring) > 40 ? "..." : "");
+  } else if (cJSON_IsArray(item)) {
+    int n = cJSON_GetArraySize(item);
+    snprintf(buf, size, "an array of %d element%s", n, n == 1 ? "" : "s");
+  } else if (cJSON_IsObject(item)) {
+    snprintf(buf, size, "an object");
+  } else if (cJSON_IsBool(item)) {
+    snprintf(buf, size, "%s", cJSON_IsTrue(item) ? "true" : "false");
+  } else if (cJSON_IsNull(item)) {
+    snprintf(buf, size, "null");
+  } else {
+    snprintf(buf, size, "an invalid value");
+  }
+  return buf;
+}
+
+const cJSON *jr_get(const cJSON *object, const char *key) {
+  if (!cJSON_IsObject(object)) return NULL;
+  const cJSON *item;
+  cJSON_ArrayForEach(item, object) {
+    if (item->string != NULL && strcmp(item->string, key) == 0) return item;
+  }
+  return NULL;
+}
+
+int jr_check_object(jr_t *jr, const cJSON *item, const char *path, const char *const *allowed) {
+  char buf[96];
+  if (!cJSON_IsObject(item)) {
+    return jr_fail(jr, path, "expected an object, found %s", jr_describe(item, buf, sizeof buf));
+  }
+  const cJSON *member;
+  cJSON_ArrayForEach(member, item) {
+    char at[JR_PATH_MAX];
+    jr_key(at, path, member->string);
+    int known = 0;
+    for (const char *const *a = allowed; *a != NULL; ++a) known = known || strcmp(*a, member->string) == 0;
+    if (!known) {
+      char list[1024] = "";
+      size_t used = 0;
+      for (const char *const *a = allowed; *a != NULL && used < sizeof list; ++a) {
+        int n = snprintf(list + used, sizeof list - used, "%s\"%s\"", a == allowed ? "" : ", ", *a);
+        if (n > 0) used += (size_t)n;
+      }
+      return jr_fail(jr, at, "unknown field (expected one of %s)", list);
+    }
+    for (const cJSON *other = item->child; other != member; other = other->next) {
+      if (strcmp(other->string, member->string) == 0) return jr_fail(jr, at, "given twice");
+    }
+  }
+  return 0;
+}
+
+/* Fetches object.key; fails if it is missing and required. Returns 1 if present. */
+static int fetch(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+                 const cJSON **item, char at[JR_PATH_MAX]) {
+  jr_key(at, path, key);
+  *item = jr_get(object, key);
+  if (*item == NULL) return required ? jr_fail(jr, at, "missing (required)") : 0;
+  return 1;
+}
+
+int jr_item_number(jr_t *jr, const cJSON *item, const char *path, double *out) {
+  char buf[96];
+  if (item == NULL || !cJSON_IsNumber(item)) {
+    return jr_fail(jr, path, "expected a number, found %s", jr_describe(item, buf, sizeof buf));
+  }
+  if (!isfinite(item->valuedouble)) return jr_fail(jr, path, "expected a finite number");
+  *out = item->valuedouble;
+  return 1;
+}
+
+int jr_number(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+              double *out) {
+  const cJSON *item;
+  char at[JR_PATH_MAX];
+  int r = fetch(jr, object, path, key, required, &item, at);
+  if (r <= 0) return r;
+  return jr_item_number(jr, item, at, out);
+}
+
+int jr_positive(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+                double *out) {
+  double v = 0.0;
+  int r = jr_number(jr, object, path, key, required, &v);
+  if (r <= 0) return r;
+  if (!(v > 0.0)) {
+    char at[JR_PATH_MAX];
+    jr_key(at, path, key);
+    return jr_fail(jr, at, "is %g; it must be > 0", v);
+  }
+  *out = v;
+  return 1;
+}
+
+int jr_integer(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+               int64_t lo, int64_t hi, int64_t *out) {
+  const cJSON *item;
+  char at[JR_PATH_MAX], buf[96];
+  int r = fetch(jr, object, path, key, required, &item, at);
+  if (r <= 0) return r;
+  double v = item != NULL && cJSON_IsNumber(item) ? item->valuedouble : (double)NAN;
+  if (!isfinite(v) || v != floor(v) || v < (double)lo || v > (double)hi) {
+    return jr_fail(jr, at, "expected an integer from %lld to %lld, found %s", (long long)lo,
+                   (long long)hi, jr_describe(item, buf, sizeof buf));
+  }
+  *out = (int64_t)v;
+  return 1;
+}
+
+int jr_string(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+              const char **out) {
+  const cJSON *item;
+  char at[JR_PATH_MAX], buf[96];
+  int r = fetch(jr, object, path, key, required, &item, at);
+  if (r <= 0) return r;
+  if (item == NULL || !cJSON_IsString(item) || item->valuestring[0] == '\0') {
+    return jr_fail(jr, at, "expected a non-empty string, found %s", jr_describe(item, buf, sizeof buf));
+  }
+  *out = item->valuestring;
+  return 1;
+}
+
+int jr_numbers(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+               int n, double *out) {
+  const cJSON *item;
+  char at[JR_PATH_MAX], buf[96];
+  int r = fetch(jr, object, path, key, required, &item, at);
+  if (r <= 0) return r;
+  if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) != n) {
+    return jr_fail(jr, at, "expected an array of %d numbers, found %s", n,
+                   jr_describe(item, buf, sizeof buf));
+  }
+  int i = 0;
+  const cJSON *e;
+  cJSON_ArrayForEach(e, item) {
+    char e_at[JR_PATH_MAX];
+    jr_index(e_at, at, i);
+    if (jr_item_number(jr, e, e_at, &out[i]) < 0) return -1;
+    ++i;
+  }
+  return 1;
+}
+
+int jr_choice(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+              const char *const *names, int *out) {
+  const cJSON *item;
+  char at[JR_PATH_MAX], buf[96];
+  int r = fetch(jr, object, path, key, required, &item, at);
+  if (r <= 0) return r;
+  if (cJSON_IsString(item)) {
+    for (int i = 0; names[i] != NULL; ++i) {
+      if (strcmp(names[i], item->valuestring) == 0) {
+        *out = i;
+        return 1;
+      }
+    }
+  }
+  char list[512] = "";
+  size_t used = 0;
+  for (int i = 0; names[i] != NULL && used < sizeof list; ++i) {
+    int w = snprintf(list + used, sizeof list - used, "%s\"%s\"", i == 0 ? "" : ", ", names[i]);
+    if (w > 0) used += (size_t)w;
+  }
+  return jr_fail(jr, at, "expected one of %s, found %s", list, jr_describe(item, buf, sizeof buf));
+}
+
+int jr_array(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+             int min_count, const cJSON **out, int *count) {
+  const cJSON *item;
+  char at[JR_PATH_MAX], buf[96];
+  int r = fetch(jr, object, path, key, required, &item, at);
+  if (r <= 0) return r;
+  if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) < min_count) {
+    return jr_fail(jr, at, "expected an array of at least %d element%s, found %s", min_count,
+                   min_count == 1 ? "" : "s", jr_describe(item, buf, sizeof buf));
+  }
+  *out = item;
+  *count = cJSON_GetArraySize(item);
+  return 1;
+}
+
+int jr_object(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
+              const cJSON **out) {
+  const cJSON *item;
+  char at[JR_PATH_MAX], buf[96];
+  int r = fetch(jr, object, path, key, required, &item, at);
+  if (r <= 0) return r;
+  if (!cJSON_IsObject(item)) {
+    return jr_fail(jr, at, "expected an object, found %s", jr_describe(item, buf, sizeof buf));
+  }
+  *out = item;
+  return 1;
+}

@@ -1,0 +1,369 @@
+/* Scene file → run settings, measurement rows and the measurement set. The
+ * medium and the sampling functions are in scene_medium.c and
+ * scene_sampling.c. */
+#include "scene.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *const scene_face_names[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max", NULL};
+
+/* The members of "estimator" and the parameters they set (photons is top-level). */
+static const struct {
+  const char *key;
+  hetinv_estimator_param_t param;
+} estimator_keys[SCENE_ESTIMATOR_KEYS] = {
+    {"batches", HETINV_ESTIMATOR_BATCHES},
+    {"roulette_weight", HETINV_ESTIMATOR_ROULETTE_WEIGHT},
+    {"roulette_survival", HETINV_ESTIMATOR_ROULETTE_SURVIVAL},
+    {"min_scattering", HETINV_ESTIMATOR_MIN_SCATTERING},
+    {"max_scattering", HETINV_ESTIMATOR_MAX_SCATTERING},
+    {"stream", HETINV_ESTIMATOR_STREAM}};
+
+/* Largest integer a JSON number holds exactly. */
+#define JSON_INT_MAX 9007199254740992LL
+
+int scene_lib_fail(jr_t *jr, const char *path, const hetinv_context_t *ctx, hetinv_result_t r) {
+  return jr_fail(jr, path, "%s (%s)", hetinv_context_last_error_message(ctx), hetinv_result_name(r));
+}
+
+void scene_face_axes(hetinv_face_t face, int *u, int *v) {
+  int a = (int)face / 2;
+  *u = a == 0 ? 1 : 0;
+  *v = a == 2 ? 1 : 2;
+}
+
+static int read_file(jr_t *jr, const char *path, char **out) {
+  FILE *f = fopen(path, "rb");
+  if (f == NULL) return jr_fail(jr, "", "cannot open: %s", strerror(errno));
+  size_t cap = 1 << 16, len = 0;
+  char *text = malloc(cap);
+  for (;;) {
+    if (text == NULL) {
+      fclose(f);
+      return jr_fail(jr, "", "out of memory");
+    }
+    len += fread(text + len, 1, cap - len - 1, f);
+    if (ferror(f)) {
+      free(text);
+      fclose(f);
+      return jr_fail(jr, "", "cannot read: %s", strerror(errno));
+    }
+    if (feof(f)) break;
+    if (cap >= (size_t)1 << 30) {
+      free(text);
+      fclose(f);
+      return jr_fail(jr, "", "larger than 1 GiB; not a scene");
+    }
+    char *bigger = realloc(text, cap * 2);
+    if (bigger == NULL) free(text);
+    text = bigger;
+    cap *= 2;
+  }
+  fclose(f);
+  text[len] = '\0';
+  if (strlen(text) != len) {
+    free(text);
+    return jr_fail(jr, "", "contains a NUL byte; not a JSON text");
+  }
+  *out = text;
+  return 0;
+}
+
+/* "<file>:<line>:<column>: JSON syntax error near ..." for a parse failure at end. */
+static int syntax_error(jr_t *jr, const char *text, const char *end) {
+  int line = 1, column = 1;
+  if (end == NULL) end = text;
+  for (const char *p = text; p < end && *p != '\0'; ++p) {
+    if (*p == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+  }
+  char near[24];
+  size_t n = 0;
+  for (const char *p = end; *p != '\0' && *p != '\n' && n < sizeof near - 1; ++p) near[n++] = *p;
+  near[n] = '\0';
+  snprintf(jr->message, sizeof jr->message,
+           "%s:%d:%d: JSON syntax error%s%s%s (cJSON stops here; the mistake may be just before)",
+           jr->file, line, column, n ? " near '" : " at the end of the file", near, n ? "'" : "");
+  return -1;
+}
+
+static int read_run_settings(scene_t *sc, jr_t *jr) {
+  const cJSON *root = sc->root;
+  int64_t v = 0;
+  sc->photons = 100000;
+  int r = jr_integer(jr, root, "", "photons", JR_OPTIONAL, 1, JSON_INT_MAX, &sc->photons);
+  if (r < 0) return r;
+  if ((r = jr_integer(jr, root, "", "seed", JR_OPTIONAL, 0, JSON_INT_MAX, &v)) < 0) return r;
+  sc->seed = (uint64_t)v;
+  v = 0;
+  if ((r = jr_integer(jr, root, "", "threads", JR_OPTIONAL, 0, 4096, &v)) < 0) return r;
+  sc->threads = (int32_t)v;
+
+  const cJSON *est = NULL;
+  if ((r = jr_object(jr, root, "", "estimator", JR_OPTIONAL, &est)) < 0) return r;
+  if (est != NULL) {
+    static const char *const allowed[] = {"batches", "roulette_weight", "roulette_survival",
+                                          "min_scattering", "max_scattering", "stream", NULL};
+    if (jr_check_object(jr, est, "estimator", allowed) < 0) return -1;
+    for (int k = 0; k < SCENE_ESTIMATOR_KEYS; ++k) {
+      r = jr_number(jr, est, "estimator", estimator_keys[k].key, JR_OPTIONAL, &sc->estimator_value[k]);
+      if (r < 0) return r;
+      sc->estimator_given[k] = r;
+    }
+  }
+  return 0;
+}
+
+int scene_load(scene_t *sc, const char *path, jr_t *jr) {
+  memset(sc, 0, sizeof *sc);
+  sc->path = path;
+  jr->file = path;
+  const char *slash = strrchr(path, '/');
+  if (slash == NULL) {
+    snprintf(sc->dir, sizeof sc->dir, ".");
+  } else {
+    snprintf(sc->dir, sizeof sc->dir, "%.*s", (int)(slash - path == 0 ? 1 : slash - path), path);
+  }
+  if (read_file(jr, path, &sc->text) < 0) return -1;
+  const char *end = NULL;
+  sc->root = cJSON_ParseWithOpts(sc->text, &end, 1);
+  if (sc->root == NULL) return syntax_error(jr, sc->text, end);
+
+  static const char *const allowed[] = {
+      "description", "unit", "box", "eta", "eta_out", "medium", "emitters", "sensors",
+      "pathlength", "pathlengths", "measurements", "photons", "seed", "threads", "estimator", NULL};
+  if (jr_check_object(jr, sc->root, "", allowed) < 0) return -1;
+  const char *s = NULL;
+  if (jr_string(jr, sc->root, "", "description", JR_OPTIONAL, &s) < 0) return -1;
+  s = "mm";
+  if (jr_string(jr, sc->root, "", "unit", JR_OPTIONAL, &s) < 0) return -1;
+  if (strlen(s) >= sizeof sc->unit) return jr_fail(jr, "unit", "longer than %zu bytes", sizeof sc->unit - 1);
+  snprintf(sc->unit, sizeof sc->unit, "%s", s);
+  return read_run_settings(sc, jr);
+}
+
+/* Index of the element of an array of structs (each beginning with its
+ * name) whose name is name, or -1. */
+static int find_name(const void *base, size_t stride, int count, const char *name) {
+  for (int i = 0; i < count; ++i) {
+    if (strcmp((const char *)base + (size_t)i * stride, name) == 0) return i;
+  }
+  return -1;
+}
+
+/* measurements[i].<key>: a name or an index of one of count things; -2 when absent. */
+static int resolve(jr_t *jr, const cJSON *item, const char *path, const char *key,
+                   const char *what, const void *base, size_t stride, int count, int *out) {
+  char at[JR_PATH_MAX], buf[96];
+  jr_key(at, path, key);
+  const cJSON *ref = jr_get(item, key);
+  if (ref == NULL) {
+    *out = -2;
+    return 0;
+  }
+  if (cJSON_IsString(ref)) {
+    *out = find_name(base, stride, count, ref->valuestring);
+    if (*out < 0) return jr_fail(jr, at, "no %s is named \"%s\"", what, ref->valuestring);
+    return 1;
+  }
+  if (cJSON_IsNumber(ref) && ref->valuedouble == floor(ref->valuedouble)) {
+    if (!(ref->valuedouble >= 0.0 && ref->valuedouble < count)) {
+      return jr_fail(jr, at, "%s index %g is out of range (the scene has %d)", what,
+                     ref->valuedouble, count);
+    }
+    *out = (int)ref->valuedouble;
+    return 1;
+  }
+  return jr_fail(jr, at, "expected the name or index of %s %s, found %s",
+                 what[0] == 'e' ? "an" : "a", what, jr_describe(ref, buf, sizeof buf));
+}
+
+static int add_row(jr_t *jr, scene_t *sc, int *capacity, int e, int s, int p, const char *name) {
+  if (sc->row_count == *capacity) {
+    int cap = *capacity ? 2 * *capacity : 16;
+    scene_row_t *rows = realloc(sc->rows, (size_t)cap * sizeof *rows);
+    if (rows == NULL) return jr_fail(jr, "measurements", "out of memory");
+    sc->rows = rows;
+    *capacity = cap;
+  }
+  scene_row_t *row = &sc->rows[sc->row_count++];
+  memset(row, 0, sizeof *row);
+  row->emitter = e;
+  row->sensor = s;
+  row->pathlength = p;
+  if (name != NULL) snprintf(row->name, sizeof row->name, "%s", name);
+  return 0;
+}
+
+int scene_check_name(jr_t *jr, const char *path, const char *name, size_t max) {
+  int ok = name[0] != '\0' && name[0] != '.' && strlen(name) < max;
+  for (const char *c = name; ok && *c; ++c) {
+    ok = (*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') ||
+         *c == '_' || *c == '-' || *c == '.';
+  }
+  if (ok) return 0;
+  return jr_fail(jr, path, "\"%s\" is not a file name of letters, digits, '_', '-' and '.' "
+                 "(not starting with '.', under %zu bytes)", name, max);
+}
+
+/* The rows: "measurements", or every emitter × every sensor. */
+static int build_rows(scene_t *sc, jr_t *jr) {
+  const cJSON *list = NULL;
+  int count = 0, capacity = 0;
+  if (jr_array(jr, sc->root, "", "measurements", JR_OPTIONAL, 1, &list, &count) < 0) return -1;
+  int *origin = NULL; /* measurements[] entry of each row, for messages */
+  if (list == NULL) {
+    if (sc->pathlength_count != 1) {
+      return jr_fail(jr, "measurements", "missing: the scene has %d pathlengths, so say which "
+                     "one each measurement uses", sc->pathlength_count);
+    }
+    for (int s = 0; s < sc->sensor_count; ++s) {
+      for (int e = 0; e < sc->emitter_count; ++e) {
+        if (add_row(jr, sc, &capacity, e, s, 0, NULL) < 0) return -1;
+      }
+    }
+  } else {
+    static const char *const allowed[] = {"emitter", "sensor", "pathlength", "name", NULL};
+    int i = 0;
+    const cJSON *item;
+    cJSON_ArrayForEach(item, list) {
+      char at[JR_PATH_MAX];
+      jr_index(at, "measurements", i);
+      if (jr_check_object(jr, item, at, allowed) < 0) goto fail;
+      int e = -2, s = -2, p = -2;
+      if (resolve(jr, item, at, "emitter", "emitter", sc->emitters, sizeof *sc->emitters,
+                  sc->emitter_count, &e) < 0 ||
+          resolve(jr, item, at, "sensor", "sensor", sc->sensors, sizeof *sc->sensors,
+                  sc->sensor_count, &s) < 0 ||
+          resolve(jr, item, at, "pathlength", "pathlength", sc->pathlengths,
+                  sizeof *sc->pathlengths, sc->pathlength_count, &p) < 0) {
+        goto fail;
+      }
+      if (p == -2) {
+        if (sc->pathlength_count != 1) {
+          jr_fail(jr, at, "no \"pathlength\": the scene has %d, so say which one",
+                  sc->pathlength_count);
+          goto fail;
+        }
+        p = 0;
+      }
+      const char *name = NULL;
+      if (jr_string(jr, item, at, "name", JR_OPTIONAL, &name) < 0) goto fail;
+      if (name != NULL && (e == -2 || s == -2)) {
+        char nat[JR_PATH_MAX];
+        jr_key(nat, at, "name");
+        jr_fail(jr, nat, "a name needs a single emitter and a single sensor");
+        goto fail;
+      }
+      if (name != NULL) {
+        char nat[JR_PATH_MAX];
+        jr_key(nat, at, "name");
+        if (scene_check_name(jr, nat, name, 2 * SCENE_NAME_MAX) < 0) goto fail;
+      }
+      for (int s1 = s == -2 ? 0 : s; s1 < (s == -2 ? sc->sensor_count : s + 1); ++s1) {
+        for (int e1 = e == -2 ? 0 : e; e1 < (e == -2 ? sc->emitter_count : e + 1); ++e1) {
+          if (add_row(jr, sc, &capacity, e1, s1, p, name) < 0) goto fail;
+          int *o = realloc(origin, (size_t)sc->row_count * sizeof *o);
+          if (o == NULL) {
+            jr_fail(jr, "measurements", "out of memory");
+            goto fail;
+          }
+          origin = o;
+          origin[sc->row_count - 1] = i;
+        }
+      }
+      ++i;
+    }
+  }
+  if (sc->row_count == 0) return jr_fail(jr, "measurements", "no rows to render");
+
+  /* Default names: <sensor>_<emitter>, plus _<pathlength> where that repeats. */
+  for (int r = 0; r < sc->row_count; ++r) {
+    scene_row_t *row = &sc->rows[r];
+    if (row->name[0] != '\0') continue;
+    int repeated = 0;
+    for (int q = 0; q < sc->row_count; ++q) {
+      repeated |= q != r && sc->rows[q].sensor == row->sensor && sc->rows[q].emitter == row->emitter;
+    }
+    snprintf(row->name, sizeof row->name, "%s_%s%s%s", sc->sensors[row->sensor].name,
+             sc->emitters[row->emitter].name, repeated ? "_" : "",
+             repeated ? sc->pathlengths[row->pathlength].name : "");
+  }
+  for (int r = 0; r < sc->row_count; ++r) {
+    for (int q = 0; q < r; ++q) {
+      if (strcmp(sc->rows[q].name, sc->rows[r].name) == 0) {
+        char at[JR_PATH_MAX] = "measurements";
+        if (origin != NULL) jr_index(at, "measurements", origin[r]);
+        jr_fail(jr, at, "two rows would both write files named \"%s\"; give them a \"name\"",
+                sc->rows[r].name);
+        goto fail;
+      }
+    }
+  }
+  free(origin);
+  return 0;
+fail:
+  free(origin);
+  return -1;
+}
+
+int scene_build(scene_t *sc, hetinv_context_t *ctx, jr_t *jr) {
+  if (scene_build_medium(sc, ctx, jr) < 0 || scene_build_emitters(sc, jr) < 0 ||
+      scene_build_sensors(sc, jr) < 0 || scene_build_pathlengths(sc, ctx, jr) < 0 ||
+      build_rows(sc, jr) < 0) {
+    return -1;
+  }
+  hetinv_result_t r = hetinv_measurements_create(ctx, &sc->set);
+  if (r != HETINV_SUCCESS) return scene_lib_fail(jr, "measurements", ctx, r);
+  for (int i = 0; i < sc->row_count; ++i) {
+    const scene_row_t *row = &sc->rows[i];
+    r = hetinv_measurements_add(sc->set, sc->emitters[row->emitter].handle,
+                                sc->sensors[row->sensor].handle,
+                                sc->pathlengths[row->pathlength].handle, NULL);
+    if (r != HETINV_SUCCESS) return scene_lib_fail(jr, "measurements", ctx, r);
+  }
+  return 0;
+}
+
+int scene_configure_estimator(const scene_t *sc, hetinv_estimator_t *est,
+                              const char *photons_origin, jr_t *jr) {
+  hetinv_context_t *ctx = NULL; /* messages are read from the calling thread */
+  hetinv_result_t r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)sc->photons);
+  if (r != HETINV_SUCCESS) return scene_lib_fail(jr, photons_origin, ctx, r);
+  for (int k = 0; k < SCENE_ESTIMATOR_KEYS; ++k) {
+    if (!sc->estimator_given[k]) continue;
+    r = hetinv_estimator_set_param(est, estimator_keys[k].param, sc->estimator_value[k]);
+    if (r != HETINV_SUCCESS) {
+      char at[JR_PATH_MAX];
+      jr_key(at, "estimator", estimator_keys[k].key);
+      return scene_lib_fail(jr, at, ctx, r);
+    }
+  }
+  return 0;
+}
+
+void scene_destroy(scene_t *sc) {
+  hetinv_measurements_destroy(&sc->set);
+  for (int i = 0; i < sc->emitter_count; ++i) hetinv_emitter_destroy(&sc->emitters[i].handle);
+  for (int i = 0; i < sc->sensor_count; ++i) hetinv_sensor_destroy(&sc->sensors[i].handle);
+  for (int i = 0; i < sc->pathlength_count; ++i) {
+    hetinv_pathlength_destroy(&sc->pathlengths[i].handle);
+    free(sc->pathlengths[i].centres);
+  }
+  free(sc->emitters);
+  free(sc->sensors);
+  free(sc->pathlengths);
+  free(sc->rows);
+  hetinv_medium_destroy(&sc->medium);
+  cJSON_Delete(sc->root);
+  free(sc->text);
+  memset(sc, 0, sizeof *sc);
+}
