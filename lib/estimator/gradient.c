@@ -18,58 +18,88 @@ typedef struct gradient {
   size_t voxels, k;        /* voxel count; length of π */
   hv_tally_t *tallies;     /* one per thread */
   hv_grad_tally_t *grads;  /* one per thread */
-  double **pi_item;        /* one per thread: the item's gradient pulled back to π */
-  double *total, *batch, *mean_sum, *mean_sq; /* batch: Σ over emitters of the current batch */
+  double *total;           /* Σ of every item, per voxel entry (3 blocks) */
+  /* For standard errors only: the current batch summed over emitters (per
+   * voxel entry, with its touched voxels), and per π entry the sum and sum
+   * of squares of batch means. */
+  hv_grad_tally_t batch;
+  double *pi_batch, *mean_sum, *mean_sq;
   bool out_of_memory;
 } gradient_t;
 
 /* Items run batch-major (item = b·E + e), so that the gradients of one batch
  * of every emitter are summed before the batch's mean enters the error. */
-
 static void run_item(void *self, int64_t item, int thread) {
   gradient_t *g = self;
-  hv_grad_tally_t *gt = &g->grads[thread];
-  memset(gt->grad, 0, 3 * g->voxels * sizeof(double));
   int32_t emitters = g->pass->plans.count;
   hv_pass_trace_batch(g->pass, (int32_t)(item % emitters), (int32_t)(item / emitters),
                       &g->tallies[thread]);
+  hv_grad_tally_t *gt = &g->grads[thread];
   if (gt->path.out_of_memory || gt->chain.out_of_memory) g->out_of_memory = true;
-  hetinv_param_map_pullback(g->map, gt->grad, g->pi_item[thread], g->k);
+}
+
+/* Moves the touched entries of `from` into `total` (and `batch`), resetting them. */
+static void drain(const gradient_t *g, hv_grad_tally_t *from, double *total, hv_grad_tally_t *batch) {
+  for (size_t i = 0; i < from->touched_count; ++i) {
+    int64_t v = from->touched_list[i];
+    for (int p = 0; p < HETINV_PARAM_COUNT; ++p) {
+      double *x = &from->grad[(size_t)p * g->voxels + (size_t)v];
+      total[(size_t)p * g->voxels + (size_t)v] += *x;
+      if (batch) hv_grad_add(batch, p, v, *x);
+      *x = 0.0;
+    }
+    from->touched[v] = 0;
+  }
+  from->touched_count = 0;
 }
 
 static void reduce_item(void *self, int64_t item, int thread) {
   gradient_t *g = self;
   const hv_pass_t *pass = g->pass;
+  bool with_errors = g->pi_batch != NULL;
+  drain(g, &g->grads[thread], g->total, with_errors ? &g->batch : NULL);
   int32_t emitters = pass->plans.count;
-  int32_t e = (int32_t)(item % emitters), b = (int32_t)(item / emitters);
-  const double *x = g->pi_item[thread];
+  if (!with_errors || (item % emitters) + 1 < emitters) return;
+  /* Batch complete: its mean in π space enters the error estimate. */
+  double n = hv_pass_batch_size(pass, (int32_t)(item / emitters));
+  hetinv_param_map_pullback(g->map, g->batch.grad, g->pi_batch, g->k);
   for (size_t i = 0; i < g->k; ++i) {
-    g->total[i] += x[i];
-    g->batch[i] = (e == 0 ? 0.0 : g->batch[i]) + x[i];
-  }
-  if (e + 1 < emitters) return;
-  double n = hv_pass_batch_size(pass, b);
-  for (size_t i = 0; i < g->k; ++i) {
-    double m = g->batch[i] / n;
+    double m = g->pi_batch[i] / n;
     g->mean_sum[i] += m;
     g->mean_sq[i] += m * m;
   }
+  for (size_t i = 0; i < g->batch.touched_count; ++i) {
+    int64_t v = g->batch.touched_list[i];
+    for (int p = 0; p < HETINV_PARAM_COUNT; ++p) g->batch.grad[(size_t)p * g->voxels + (size_t)v] = 0.0;
+    g->batch.touched[v] = 0;
+  }
+  g->batch.touched_count = 0;
+}
+
+static bool alloc_grad_tally(const hetinv_context_t *ctx, size_t voxels, hv_grad_tally_t *gt) {
+  gt->voxels = voxels;
+  gt->grad = hv_calloc(ctx, 3 * voxels, sizeof(double));
+  gt->touched = hv_calloc(ctx, voxels, 1);
+  gt->touched_list = hv_calloc(ctx, voxels, sizeof(int64_t));
+  gt->path.ctx = gt->chain.ctx = ctx;
+  return gt->grad && gt->touched && gt->touched_list;
+}
+
+static void free_grad_tally(const hetinv_context_t *ctx, hv_grad_tally_t *gt) {
+  hv_free(ctx, gt->grad);
+  hv_free(ctx, gt->touched);
+  hv_free(ctx, gt->touched_list);
+  hv_path_log_release(&gt->path);
+  hv_path_log_release(&gt->chain);
 }
 
 static void release(const hetinv_context_t *ctx, gradient_t *g, int threads) {
-  for (int t = 0; t < threads; ++t) {
-    if (g->grads) {
-      hv_free(ctx, g->grads[t].grad);
-      hv_path_log_release(&g->grads[t].path);
-      hv_path_log_release(&g->grads[t].chain);
-    }
-    if (g->pi_item) hv_free(ctx, g->pi_item[t]);
-  }
+  for (int t = 0; g->grads && t < threads; ++t) free_grad_tally(ctx, &g->grads[t]);
+  free_grad_tally(ctx, &g->batch);
   hv_free(ctx, g->tallies);
   hv_free(ctx, g->grads);
-  hv_free(ctx, g->pi_item);
   hv_free(ctx, g->total);
-  hv_free(ctx, g->batch);
+  hv_free(ctx, g->pi_batch);
   hv_free(ctx, g->mean_sum);
   hv_free(ctx, g->mean_sq);
 }
@@ -80,26 +110,22 @@ static hetinv_result_t run_gradient(const hv_pass_t *pass, const hetinv_param_ma
                                     const char *func) {
   const hetinv_context_t *ctx = pass->ctx;
   gradient_t g = {.pass = pass, .map = map, .k = hetinv_param_map_size(map)};
-  size_t voxels = (size_t)pass->grid.n[0] * (size_t)pass->grid.n[1] * (size_t)pass->grid.n[2];
-  g.voxels = voxels;
+  g.voxels = (size_t)pass->grid.n[0] * (size_t)pass->grid.n[1] * (size_t)pass->grid.n[2];
   int threads = pass->threads;
   g.tallies = hv_calloc(ctx, (size_t)threads, sizeof *g.tallies);
   g.grads = hv_calloc(ctx, (size_t)threads, sizeof *g.grads);
-  g.pi_item = hv_calloc(ctx, (size_t)threads, sizeof *g.pi_item);
-  g.total = hv_calloc(ctx, g.k, sizeof(double));
-  g.batch = hv_calloc(ctx, g.k, sizeof(double));
-  g.mean_sum = hv_calloc(ctx, g.k, sizeof(double));
-  g.mean_sq = hv_calloc(ctx, g.k, sizeof(double));
-  bool ok = g.tallies && g.grads && g.pi_item && g.total && g.batch && g.mean_sum && g.mean_sq;
+  g.total = hv_calloc(ctx, 3 * g.voxels, sizeof(double));
+  bool ok = g.tallies && g.grads && g.total;
+  if (ok && grad_se) {
+    g.pi_batch = hv_calloc(ctx, g.k, sizeof(double));
+    g.mean_sum = hv_calloc(ctx, g.k, sizeof(double));
+    g.mean_sq = hv_calloc(ctx, g.k, sizeof(double));
+    ok = g.pi_batch && g.mean_sum && g.mean_sq && alloc_grad_tally(ctx, g.voxels, &g.batch);
+  }
   for (int t = 0; ok && t < threads; ++t) {
-    hv_grad_tally_t *gt = &g.grads[t];
-    gt->cotangent = cotangent;
-    gt->voxels = voxels;
-    gt->grad = hv_calloc(ctx, 3 * voxels, sizeof(double));
-    gt->path.ctx = gt->chain.ctx = ctx;
-    g.pi_item[t] = hv_calloc(ctx, g.k, sizeof(double));
-    g.tallies[t].grad = gt;
-    ok = gt->grad && g.pi_item[t];
+    ok = alloc_grad_tally(ctx, g.voxels, &g.grads[t]);
+    g.grads[t].cotangent = cotangent;
+    g.tallies[t].grad = &g.grads[t];
   }
   if (ok) {
     hv_batch_loop_t loop = {(int64_t)pass->plans.count * pass->batches, threads, &g, run_item,
@@ -108,9 +134,10 @@ static hetinv_result_t run_gradient(const hv_pass_t *pass, const hetinv_param_ma
     ok = !g.out_of_memory;
   }
   if (ok) {
+    hetinv_param_map_pullback(map, g.total, grad, g.k);
     double n = (double)pass->photons;
     for (size_t i = 0; i < g.k; ++i) {
-      grad[i] = g.total[i] / n;
+      grad[i] /= n;
       if (grad_se) grad_se[i] = hv_batch_std_error(g.mean_sum[i], g.mean_sq[i], pass->batches);
     }
   }

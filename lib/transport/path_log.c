@@ -25,20 +25,3 @@ void hv_path_log_release(hv_path_log_t *log) {
   log->entries = NULL;
   log->count = log->capacity = 0;
 }
-
-void hv_path_log_apply(const hv_path_log_t *log, double *grad, size_t voxels) {
-  double *ga = grad, *gs = grad + voxels, *gg = grad + 2 * voxels;
-  for (size_t i = 0; i < log->count; ++i) {
-    const hv_log_entry_t *e = &log->entries[i];
-    double w = log->cum - e->cum;
-    if (w == 0.0) continue;
-    switch (e->kind) {
-      case HV_LOG_SEGMENT:
-        ga[e->voxel] -= e->value * w;
-        gs[e->voxel] -= e->value * w;
-        break;
-      case HV_LOG_SCATTER: gs[e->voxel] += e->value * w; break;
-      case HV_LOG_PHASE: gg[e->voxel] += e->value * w; break;
-    }
-  }
-}

@@ -44,8 +44,5 @@ static inline void hv_path_log_reset(hv_path_log_t *log) {
   log->cum = 0.0;
 }
 
-/* Adds every entry's score times (log->cum - entry.cum) to the voxel
- * gradient grad (σa block, σs block, g block of `voxels` each). */
-void hv_path_log_apply(const hv_path_log_t *log, double *grad, size_t voxels);
 
 #endif

@@ -15,6 +15,22 @@
 #define HV_CHAIN_CUTOFF 1e-7
 #define HV_CHAIN_MAX_BOUNCES 64
 
+void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_path_log_t *log) {
+  for (size_t i = 0; i < log->count; ++i) {
+    const hv_log_entry_t *e = &log->entries[i];
+    double w = log->cum - e->cum;
+    if (w == 0.0) continue;
+    switch (e->kind) {
+      case HV_LOG_SEGMENT:
+        hv_grad_add(gt, HETINV_PARAM_SIGMA_A, e->voxel, -e->value * w);
+        hv_grad_add(gt, HETINV_PARAM_SIGMA_S, e->voxel, -e->value * w);
+        break;
+      case HV_LOG_SCATTER: hv_grad_add(gt, HETINV_PARAM_SIGMA_S, e->voxel, e->value * w); break;
+      case HV_LOG_PHASE: hv_grad_add(gt, HETINV_PARAM_G, e->voxel, e->value * w); break;
+    }
+  }
+}
+
 /* Scores contribution `value` at pathlength tau into pixel `pixel` of every
  * row of target t: added to dst (forward), or, in gradient mode, weighed by
  * the cotangent and added to the splat total of `log`. */
@@ -91,8 +107,8 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
     if (chain && chain->cum != 0.0) {
       /* The chain's own segments and the vertex's phase toward w0 score only
        * this chain's splats; its total joins the path's splats. */
-      hv_path_log_apply(chain, gt->grad, gt->voxels);
-      gt->grad[2 * gt->voxels + vertex->k] += hv_hg_dlog_dg(g, cos_theta) * chain->cum;
+      hv_grad_apply_log(gt, chain);
+      hv_grad_add(gt, HETINV_PARAM_G, vertex->k, hv_hg_dlog_dg(g, cos_theta) * chain->cum);
       gt->path.cum += chain->cum;
     }
   }
@@ -206,5 +222,5 @@ void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng
   hv_grad_tally_t *gt = tally->grad;
   if (gt) hv_path_log_reset(&gt->path);
   trace(tr, plan, rng, tally);
-  if (gt) hv_path_log_apply(&gt->path, gt->grad, gt->voxels);
+  if (gt) hv_grad_apply_log(gt, &gt->path);
 }

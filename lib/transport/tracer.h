@@ -33,7 +33,24 @@ typedef struct hv_grad_tally {
   double *grad;
   size_t voxels;
   hv_path_log_t path, chain; /* scratch of the current path and connection */
+  /* Voxels whose gradient entries are (possibly) non-zero, so that the
+   * reduction and the reset touch only those. */
+  uint8_t *touched;
+  int64_t *touched_list;
+  size_t touched_count;
 } hv_grad_tally_t;
+
+/* Adds amount to entry (param block, voxel) of the tally's gradient. */
+static inline void hv_grad_add(hv_grad_tally_t *gt, int param, int64_t voxel, double amount) {
+  gt->grad[(size_t)param * gt->voxels + (size_t)voxel] += amount;
+  if (!gt->touched[voxel]) {
+    gt->touched[voxel] = 1;
+    gt->touched_list[gt->touched_count++] = voxel;
+  }
+}
+
+/* Adds every entry's score times (log->cum - entry.cum) to the gradient. */
+void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_path_log_t *log);
 
 /* Where one batch of photons adds what it scores. */
 typedef struct hv_tally {
