@@ -72,6 +72,14 @@ static inline uint32_t hv_rng_u32(hv_rng_t *r) {
   return r->out.v[r->used++];
 }
 
+/* A whole fresh block (four 32-bit outputs) — the buffered outputs of
+ * hv_rng_u32 come from other counters, so nothing is used twice. */
+static inline philox4x32_ctr_t hv_rng_block(hv_rng_t *r) {
+  philox4x32_ctr_t o = hv_philox4x32_10(r->ctr, r->key);
+  ++r->ctr.v[0];
+  return o;
+}
+
 /* Next 64 random bits (two outputs, the first in the high half). */
 static inline uint64_t hv_rng_u64(hv_rng_t *r) {
   uint64_t hi = hv_rng_u32(r);
@@ -89,6 +97,9 @@ static inline double hv_unit_from_bits(uint64_t bits) {
 static inline double hv_open_unit_from_bits(uint64_t bits) {
   return ((double)(bits >> 12) + 0.5) * 0x1p-52;
 }
+
+/* Uniform in [0, 1) from 32 random bits (enough for angles). */
+static inline double hv_unit_from_u32(uint32_t bits) { return (double)bits * 0x1p-32; }
 
 /* Uniform in [0, 1) with 53 random bits. */
 static inline double hv_rng_uniform(hv_rng_t *r) { return hv_unit_from_bits(hv_rng_u64(r)); }

@@ -58,8 +58,9 @@ static inline double hv_hg_sample_cos(double g, double u) {
     double a = 1.0 - 2.0 * u, d = 1.0 - g * a;
     c = (-2.0 * a + g * (a * a + 3.0 - g * (2.0 * a - g * (a * a - 1.0)))) / (2.0 * d * d);
   } else {
-    double s = (1.0 - g) * (1.0 + g) / (1.0 - g + 2.0 * g * u);
-    c = (1.0 + g * g - s * s) / (2.0 * g);
+    /* (1 + g² - s²)/(2g) with s = A/D, over one division. */
+    double A = (1.0 - g) * (1.0 + g), D = 1.0 - g + 2.0 * g * u, D2 = D * D;
+    c = ((1.0 + g * g) * D2 - A * A) / (2.0 * g * D2);
   }
   return c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c);
 }
@@ -80,15 +81,35 @@ static inline void hv_onb(const double n[3], double t[3], double b[3]) {
   b[2] = -n[1];
 }
 
-/* The unit direction at angle θ from unit w (cosθ given) and azimuth φ about
- * it, measured in the frame of hv_onb(w). */
-static inline void hv_dir_from_cos_phi(const double w[3], double cos_theta, double phi,
+/* sin and cos of 2π·u for u ∈ [0, 1): quadrant reduction (exact) and
+ * Taylor polynomials on [-π/4, π/4] (error < 1e-16). */
+static inline void hv_sincos_2pi(double u, double *s, double *c) {
+  double x = 4.0 * u;
+  int iq = (int)(x + 0.5); /* x >= 0: truncation is floor, without a libm call */
+  double f = (x - (double)iq) * 1.57079632679489661923;
+  double f2 = f * f;
+  double sp = f + f * f2 * (-1.0 / 6 + f2 * (1.0 / 120 + f2 * (-1.0 / 5040 + f2 * (1.0 / 362880 +
+              f2 * (-1.0 / 39916800 + f2 * (1.0 / 6227020800 + f2 * (-1.0 / 1307674368000)))))));
+  double cp = 1.0 + f2 * (-0.5 + f2 * (1.0 / 24 + f2 * (-1.0 / 720 + f2 * (1.0 / 40320 +
+              f2 * (-1.0 / 3628800 + f2 * (1.0 / 479001600 + f2 * (-1.0 / 87178291200 +
+              f2 * (1.0 / 20922789888000))))))));
+  iq &= 3;
+  double ss = (iq & 1) ? cp : sp, cc = (iq & 1) ? sp : cp;
+  *s = (iq & 2) ? -ss : ss;
+  *c = (iq == 1 || iq == 2) ? -cc : cc;
+}
+
+/* The unit direction at angle θ from unit w (cosθ given) and azimuth
+ * φ = 2π·turns about it (turns ∈ [0, 1)), measured in the frame of hv_onb(w). */
+static inline void hv_dir_from_cos_phi(const double w[3], double cos_theta, double turns,
                                        double out[3]) {
   double t[3], b[3];
   hv_onb(w, t, b);
   double s2 = 1.0 - cos_theta * cos_theta;
   double sin_theta = s2 > 0.0 ? sqrt(s2) : 0.0;
-  double x = sin_theta * cos(phi), y = sin_theta * sin(phi);
+  double sp, cp;
+  hv_sincos_2pi(turns, &sp, &cp);
+  double x = sin_theta * cp, y = sin_theta * sp;
   for (int i = 0; i < 3; ++i) out[i] = x * t[i] + y * b[i] + cos_theta * w[i];
 }
 
@@ -126,7 +147,7 @@ static inline double hv_phase_sample_cos(hv_phase_t p, double u) {
 static inline double hv_phase_sample(hv_phase_t p, const double wi[3], double u1, double u2,
                                      double wo[3]) {
   double cos_theta = hv_phase_sample_cos(p, u1);
-  hv_dir_from_cos_phi(wi, cos_theta, HV_2PI * u2, wo);
+  hv_dir_from_cos_phi(wi, cos_theta, u2, wo);
   return cos_theta;
 }
 

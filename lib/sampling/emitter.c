@@ -305,7 +305,7 @@ void hv_emitter_sample(const hetinv_emitter_t *e, hv_rng_t *rng, hv_launch_t *ou
       hv_face_normal(e->face, n_in);
       for (int a = 0; a < 3; ++a) n_in[a] = -n_in[a];
       double cos_theta = sqrt(hv_rng_uniform_open(rng));
-      hv_dir_from_cos_phi(n_in, cos_theta, HV_2PI * hv_rng_uniform(rng), out->direction);
+      hv_dir_from_cos_phi(n_in, cos_theta, hv_rng_uniform(rng), out->direction);
       out->face = e->face;
       return;
     }

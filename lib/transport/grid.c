@@ -21,6 +21,12 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, h
     out->albedo[i] = out->sigma_t[i] > 0.0 ? ss[i] / out->sigma_t[i] : 0.0;
   }
   out->g = medium->values[HETINV_PARAM_G];
+  out->uniform = 1;
+  out->inv_sigma_t = 1.0 / out->sigma_t[0];
+  for (size_t i = 1; i < n && out->uniform; ++i) {
+    out->uniform = out->sigma_t[i] == out->sigma_t[0] && out->albedo[i] == out->albedo[0] &&
+                   out->g[i] == out->g[0];
+  }
   out->sigma_s = ss;
   int64_t stride = 1;
   for (int a = 0; a < 3; ++a) {

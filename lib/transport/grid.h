@@ -22,6 +22,10 @@ typedef struct hv_grid {
   const double *sigma_s; /* the medium's own array (gradient scores need σs) */
   double eta, eta_out;
   const hetinv_context_t *ctx;
+  /* Every voxel has the same σt, albedo and g: free flights of the forward
+   * pass then skip the voxel stepping (hv_ray_march_uniform). */
+  int uniform;
+  double inv_sigma_t;    /* uniform: 1/σt (inf for σt = 0) */
 } hv_grid_t;
 
 /* Builds the grid of a committed medium; release with hv_grid_release. */
@@ -58,26 +62,26 @@ typedef struct hv_dda {
 
 static inline void hv_dda_init(const hv_grid_t *g, const hv_ray_t *r, hv_dda_t *s) {
   for (int a = 0; a < 3; ++a) {
-    if (r->d[a] > 0.0) {
-      s->step[a] = 1;
-      s->t_next[a] = (g->lo[a] + (r->v[a] + 1) * g->h[a] - r->p[a]) / r->d[a];
-      s->t_delta[a] = g->h[a] / r->d[a];
-    } else if (r->d[a] < 0.0) {
-      s->step[a] = -1;
-      s->t_next[a] = (g->lo[a] + r->v[a] * g->h[a] - r->p[a]) / r->d[a];
-      s->t_delta[a] = -g->h[a] / r->d[a];
-    } else {
-      s->step[a] = 0;
-      s->t_next[a] = HUGE_VAL;
-      s->t_delta[a] = HUGE_VAL;
-    }
-    if (s->t_next[a] < 0.0) s->t_next[a] = 0.0; /* rounding on a voxel face */
+    double d = r->d[a];
+    double inv = 1.0 / d; /* ±inf for d = 0 */
+    int pos = d > 0.0;
+    s->step[a] = pos ? 1 : (d < 0.0 ? -1 : 0);
+    double face = g->lo[a] + (double)(r->v[a] + pos) * g->h[a];
+    double t = (face - r->p[a]) * inv;
+    t = d == 0.0 ? HUGE_VAL : t;
+    s->t_next[a] = t < 0.0 ? 0.0 : t; /* rounding on a voxel face */
+    s->t_delta[a] = g->h[a] * fabs(inv);
   }
 }
 
+static inline double hv_dda_tmin(const hv_dda_t *s) {
+  double m = s->t_next[0] < s->t_next[1] ? s->t_next[0] : s->t_next[1];
+  return m < s->t_next[2] ? m : s->t_next[2];
+}
+
 static inline int hv_dda_axis(const hv_dda_t *s) {
-  return s->t_next[0] < s->t_next[1] ? (s->t_next[0] < s->t_next[2] ? 0 : 2)
-                                     : (s->t_next[1] < s->t_next[2] ? 1 : 2);
+  int a = s->t_next[0] < s->t_next[1] ? 0 : 1;
+  return s->t_next[a] < s->t_next[2] ? a : 2;
 }
 
 /* Steps into the next voxel along axis a at distance t; returns 0 and puts
@@ -100,18 +104,53 @@ static inline int hv_dda_advance(const hv_grid_t *g, hv_ray_t *r, hv_dda_t *s, i
   return 0;
 }
 
+/* hv_ray_march in a uniform grid: one multiplication, and one predictable
+ * test that the collision lies in the box. It leaves r->v and r->k as they
+ * were (all voxels are alike); code that needs the voxel re-locates the ray. */
+static inline int hv_ray_march_uniform(const hv_grid_t *g, hv_ray_t *r, double depth,
+                                       double *dist, hetinv_face_t *face) {
+  double x = depth * g->inv_sigma_t;
+  double q[3];
+  for (int i = 0; i < 3; ++i) q[i] = r->p[i] + x * r->d[i];
+  /* The common case, one predictable branch: the collision is inside the box. */
+  if ((q[0] >= g->lo[0]) & (q[0] <= g->hi[0]) & (q[1] >= g->lo[1]) & (q[1] <= g->hi[1]) &
+      (q[2] >= g->lo[2]) & (q[2] <= g->hi[2])) {
+    for (int i = 0; i < 3; ++i) r->p[i] = q[i];
+    *dist = x;
+    return 1;
+  }
+  double tb = HUGE_VAL;
+  int ab = 0;
+  for (int a = 0; a < 3; ++a) {
+    double d = r->d[a];
+    double t = d > 0.0 ? (g->hi[a] - r->p[a]) / d : (d < 0.0 ? (g->lo[a] - r->p[a]) / d : HUGE_VAL);
+    if (t < tb) {
+      tb = t;
+      ab = a;
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    double y = r->p[i] + tb * r->d[i];
+    r->p[i] = y < g->lo[i] ? g->lo[i] : (y > g->hi[i] ? g->hi[i] : y);
+  }
+  r->p[ab] = r->d[ab] > 0.0 ? g->hi[ab] : g->lo[ab];
+  *face = (hetinv_face_t)(2 * ab + (r->d[ab] > 0.0 ? 1 : 0));
+  *dist = tb < 0.0 ? 0.0 : tb;
+  return 0;
+}
+
 /* Free flight: moves the ray until it has crossed optical depth @p depth
  * (returns 1: a collision at r->p) or reaches the boundary (returns 0: r->p
  * on face *face). *dist receives the distance travelled; r->k is the voxel
  * at the end. Segments go to @p log when it is not NULL. */
 static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth, double *dist,
                                hetinv_face_t *face, hv_path_log_t *log) {
+  if (g->uniform && !log) return hv_ray_march_uniform(g, r, depth, dist, face);
   hv_dda_t s;
   hv_dda_init(g, r, &s);
   double t = 0.0;
   for (;;) {
-    int a = hv_dda_axis(&s);
-    double seg = s.t_next[a] - t, st = g->sigma_t[r->k];
+    double seg = hv_dda_tmin(&s) - t, st = g->sigma_t[r->k];
     if (st * seg >= depth) { /* collision inside this voxel */
       double x = depth / st;
       if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
@@ -122,6 +161,7 @@ static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth, do
     }
     if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, seg);
     depth -= st * seg;
+    int a = hv_dda_axis(&s);
     t = s.t_next[a];
     if (!hv_dda_advance(g, r, &s, a, t, face)) {
       *dist = t;

@@ -3,6 +3,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/compiler.h"
 #include "medium/fresnel.h"
 #include "medium/phase.h"
 #include "sampling/emitter_internal.h"
@@ -160,9 +161,10 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
 }
 
 /* The photon loop proper; hv_trace_photon wraps it with the score log. */
-static void trace(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
+HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t *plan,
+                                          hv_rng_t *rng, hv_tally_t *tally) {
   const hv_grid_t *grid = tr->grid;
-  hv_path_log_t *log = tally->grad ? &tally->grad->path : NULL;
+  hv_path_log_t *plog = tally->grad ? &tally->grad->path : NULL;
   hv_launch_t launch;
   hv_emitter_sample(plan->emitter, rng, &launch);
 
@@ -179,27 +181,32 @@ static void trace(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, h
   hv_refract_cos(launch.direction, n, eta_in, cos_t, r.d);
   hv_ray_locate(grid, &r);
 
-  double tau = 0.0;
+  double tau = 0.0, absorbed = 0.0;
   int32_t scatterings = 0;
   for (;;) {
     double dist;
     hetinv_face_t face;
-    int collided = hv_ray_march(grid, &r, -log1p(-hv_rng_uniform(rng)), &dist, &face, log);
+    /* One Philox block per flight and scattering: 64 bits for the free path,
+     * 32 + 32 for the angles. Rare draws (Fresnel, roulette) come from the
+     * stream's buffered outputs, whose counters are never these. */
+    philox4x32_ctr_t blk = hv_rng_block(rng);
+    double u_depth = hv_unit_from_bits((uint64_t)blk.v[0] << 32 | blk.v[1]);
+    int collided = hv_ray_march(grid, &r, -log(1.0 - u_depth), &dist, &face, plog);
     tau += dist;
     if (!collided) {
-      if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) return;
+      if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) break;
       continue;
     }
     ++scatterings;
     double albedo = grid->albedo[r.k];
-    tally->stats[HV_STAT_ABSORBED] += w * (1.0 - albedo);
+    absorbed += w * (1.0 - albedo);
     w *= albedo;
-    if (!(w > 0.0)) return; /* a purely absorbing voxel */
+    if (!(w > 0.0)) break; /* a purely absorbing voxel */
     if (tr->max_scattering > 0 && scatterings > tr->max_scattering) {
       tally->stats[HV_STAT_TRUNCATED] += w;
-      return;
+      break;
     }
-    if (log) hv_path_log_add(log, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
+    if (plog) hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
     double g = grid->g[r.k];
     if (scatterings >= tr->min_scattering) {
       for (int32_t i = 0; i < plan->ortho_count; ++i) {
@@ -207,17 +214,19 @@ static void trace(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, h
       }
     }
     double d_new[3];
-    double cos_theta = hv_phase_sample((hv_phase_t){HV_PHASE_HG, g}, r.d, hv_rng_uniform(rng),
-                                       hv_rng_uniform(rng), d_new);
-    if (log) hv_path_log_add(log, HV_LOG_PHASE, r.k, hv_hg_dlog_dg(g, cos_theta));
+    double cos_theta = hv_phase_sample((hv_phase_t){HV_PHASE_HG, g}, r.d, hv_unit_from_u32(blk.v[2]),
+                                       hv_unit_from_u32(blk.v[3]), d_new);
+    if (plog) hv_path_log_add(plog, HV_LOG_PHASE, r.k, hv_hg_dlog_dg(g, cos_theta));
     memcpy(r.d, d_new, sizeof r.d);
     if (w < tr->roulette_weight) {
-      if (hv_rng_uniform(rng) >= tr->roulette_survival) return;
+      if (hv_rng_uniform(rng) >= tr->roulette_survival) break;
       w /= tr->roulette_survival;
     }
   }
+  tally->stats[HV_STAT_ABSORBED] += absorbed;
 }
 
+HV_TARGET_CLONES_X86_64_V3
 void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
   hv_grad_tally_t *gt = tally->grad;
   if (gt) hv_path_log_reset(&gt->path);

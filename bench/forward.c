@@ -1,0 +1,332 @@
+/* hetinv-bench-forward: forward-render throughput on the anchor medium A1.
+ *
+ * A1: σa = 1/mm, σs = 10/mm, g = 0.5, a 10 mm cube as 100³ voxels of
+ * 0.1 mm, a pencil beam at the centre of the top face (z = z_max) pointing
+ * inward, Russian roulette below weight 1e-4 surviving one in ten. Rd is
+ * the power leaving through the whole top face (a hemispherical detector).
+ *
+ * Cases:
+ *   a1      η = η_out = 1 (index matched)     reference Rd 0.2950
+ *   a1-eta  η = 1.37 in air (η_out = 1)       reference Rd 0.1719, specular 0.0244
+ *   a1-het  A1 with σa and σs of every voxel multiplied by independent
+ *           factors uniform in [0.5, 1.5] (fixed seed); no reference. It
+ *           keeps a homogeneous fast path honest.
+ *
+ * Every case is rendered with one thread and with two, each from its own
+ * context (thread_count 1 and 2, the same seed), so the two renders trace
+ * the same photons and must give bitwise-identical values. Output, one
+ * line per figure (DESIGN §8):
+ *
+ *   a1 threads=1 photons=N seconds=T photons_per_s=P Rd=R se=E ref=0.2950 z=Z cpu_seconds=C
+ *   a1 threads=2 photons=N ...
+ *   a1 scaling_2_over_1=1.93 identical=yes
+ *
+ * With --repeat R each thread count is run R times, interleaved
+ * (1, 2, 1, 2, ...) so that drift of a shared machine hits both alike; the
+ * fastest run of each is reported. --threads 1 (or 2) runs one thread
+ * count only, for profiling. This is a benchmark, not a test: it
+ * exits non-zero only when the library reports an error.
+ */
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "hetinv/hetinv.h"
+
+#define A1_N 100
+#define A1_SIZE 10.0
+#define A1_SIGMA_A 1.0
+#define A1_SIGMA_S 10.0
+#define A1_G 0.5
+#define ROULETTE_WEIGHT 1e-4
+#define ROULETTE_SURVIVAL 0.1
+#define HET_SEED UINT64_C(0x5eed0a1)
+#define DEFAULT_PHOTONS 1000000.0
+
+typedef enum { CASE_A1, CASE_A1_ETA, CASE_A1_HET, CASE_COUNT } case_id_t;
+
+static const struct {
+  const char *name;
+  double eta;
+  bool het;
+  double ref_rd;       /* < 0: no reference */
+  double ref_specular; /* < 0: none quoted */
+} cases[CASE_COUNT] = {
+    [CASE_A1] = {"a1", 1.0, false, 0.2950, -1.0},
+    [CASE_A1_ETA] = {"a1-eta", 1.37, false, 0.1719, 0.0244},
+    [CASE_A1_HET] = {"a1-het", 1.0, true, -1.0, -1.0},
+};
+
+/* One context with everything a render needs. */
+typedef struct scene {
+  hetinv_context_t *ctx;
+  hetinv_medium_t *medium;
+  hetinv_emitter_t *emitter;
+  hetinv_sensor_t *sensor;
+  hetinv_pathlength_t *steady;
+  hetinv_measurements_t *set;
+  hetinv_estimator_t *est;
+} scene_t;
+
+/* The outcome of one render. */
+typedef struct run {
+  double seconds, cpu_seconds, rd, se, specular;
+  uint64_t photons;
+} run_t;
+
+static bool check(hetinv_result_t r, const hetinv_context_t *ctx, const char *what) {
+  if (r == HETINV_SUCCESS) return true;
+  fprintf(stderr, "hetinv-bench-forward: %s failed: %s (%s)\n", what, hetinv_result_name(r),
+          hetinv_context_last_error_message(ctx));
+  return false;
+}
+
+static double clock_seconds(clockid_t id) {
+  struct timespec ts;
+  clock_gettime(id, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* splitmix64: the het variant's voxel factors, reproducible everywhere. */
+static uint64_t splitmix64(uint64_t *state) {
+  uint64_t z = (*state += UINT64_C(0x9e3779b97f4a7c15));
+  z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
+  z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
+  return z ^ (z >> 31);
+}
+
+static double factor(uint64_t *state) {
+  return 0.5 + (double)(splitmix64(state) >> 11) * 0x1p-53; /* [0.5, 1.5) */
+}
+
+/* σa and σs of the het variant in linear voxel order (x fastest). */
+static bool fill_het(hetinv_medium_t *m, hetinv_context_t *ctx) {
+  size_t n = hetinv_medium_voxel_count(m);
+  double *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
+  bool ok = sa && ss;
+  if (!ok) fprintf(stderr, "hetinv-bench-forward: out of memory\n");
+  uint64_t state = HET_SEED;
+  for (size_t i = 0; ok && i < n; ++i) {
+    sa[i] = A1_SIGMA_A * factor(&state);
+    ss[i] = A1_SIGMA_S * factor(&state);
+  }
+  ok = ok &&
+       check(hetinv_medium_set_grid(m, HETINV_PARAM_SIGMA_A, sa, n), ctx, "set_grid sigma_a") &&
+       check(hetinv_medium_set_grid(m, HETINV_PARAM_SIGMA_S, ss, n), ctx, "set_grid sigma_s");
+  free(sa);
+  free(ss);
+  return ok;
+}
+
+static void scene_destroy(scene_t *s) {
+  hetinv_estimator_destroy(&s->est);
+  hetinv_measurements_destroy(&s->set);
+  hetinv_pathlength_destroy(&s->steady);
+  hetinv_sensor_destroy(&s->sensor);
+  hetinv_emitter_destroy(&s->emitter);
+  hetinv_medium_destroy(&s->medium);
+  hetinv_context_destroy(&s->ctx);
+}
+
+static bool scene_create(case_id_t c, int32_t threads, double photons, scene_t *s) {
+  *s = (scene_t){0};
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.thread_count = threads;
+  init.seed = 0;
+  if (!check(hetinv_context_create(&init, &s->ctx), NULL, "context_create")) return false;
+  hetinv_context_t *ctx = s->ctx;
+  const double lo[3] = {0.0, 0.0, 0.0}, hi[3] = {A1_SIZE, A1_SIZE, A1_SIZE};
+  const int32_t dims[3] = {A1_N, A1_N, A1_N};
+  const double origin[3] = {0.5 * A1_SIZE, 0.5 * A1_SIZE, A1_SIZE}, down[3] = {0.0, 0.0, -1.0};
+  bool ok =
+      check(hetinv_medium_create(ctx, lo, hi, dims, &s->medium), ctx, "medium_create") &&
+      check(hetinv_medium_set_ior(s->medium, cases[c].eta, 1.0), ctx, "medium_set_ior") &&
+      check(hetinv_medium_fill(s->medium, A1_SIGMA_A, A1_SIGMA_S, A1_G), ctx, "medium_fill") &&
+      (!cases[c].het || fill_het(s->medium, ctx)) &&
+      check(hetinv_medium_commit(s->medium), ctx, "medium_commit") &&
+      check(hetinv_emitter_create_ideal(s->medium, origin, down, &s->emitter), ctx,
+            "emitter_create_ideal") &&
+      check(
+          hetinv_sensor_create_hemispherical(s->medium, HETINV_FACE_Z_MAX, NULL, NULL, &s->sensor),
+          ctx, "sensor_create_hemispherical") &&
+      check(hetinv_pathlength_create_steady(ctx, &s->steady), ctx, "pathlength_create_steady") &&
+      check(hetinv_measurements_create(ctx, &s->set), ctx, "measurements_create") &&
+      check(hetinv_measurements_add(s->set, s->emitter, s->sensor, s->steady, NULL), ctx,
+            "measurements_add") &&
+      check(hetinv_estimator_create(ctx, &s->est), ctx, "estimator_create") &&
+      check(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_PHOTONS, photons), ctx,
+            "set_param PHOTONS") &&
+      check(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_ROULETTE_WEIGHT, ROULETTE_WEIGHT),
+            ctx, "set_param ROULETTE_WEIGHT") &&
+      check(
+          hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_ROULETTE_SURVIVAL, ROULETTE_SURVIVAL),
+          ctx, "set_param ROULETTE_SURVIVAL");
+  if (!ok) scene_destroy(s);
+  return ok;
+}
+
+static bool scene_render(scene_t *s, run_t *out) {
+  double rd = 0.0, se = 0.0;
+  double t0 = clock_seconds(CLOCK_MONOTONIC), c0 = clock_seconds(CLOCK_PROCESS_CPUTIME_ID);
+  if (!check(hetinv_estimator_render(s->est, s->medium, s->set, &rd, &se, NULL, 1), s->ctx,
+             "render")) {
+    return false;
+  }
+  double t1 = clock_seconds(CLOCK_MONOTONIC), c1 = clock_seconds(CLOCK_PROCESS_CPUTIME_ID);
+  hetinv_render_stats_t st = {.size = sizeof st};
+  if (!check(hetinv_estimator_get_stats(s->est, &st), s->ctx, "get_stats")) return false;
+  *out = (run_t){.seconds = t1 - t0,
+                 .cpu_seconds = c1 - c0,
+                 .rd = rd,
+                 .se = se,
+                 .specular = st.specular,
+                 .photons = st.photons};
+  return true;
+}
+
+static void print_run(case_id_t c, int32_t threads, const run_t *r) {
+  printf("%s threads=%d photons=%" PRIu64 " seconds=%.3f photons_per_s=%.0f Rd=%.4f se=%.4f",
+         cases[c].name, (int)threads, r->photons, r->seconds, (double)r->photons / r->seconds,
+         r->rd, r->se);
+  if (cases[c].ref_rd >= 0.0) {
+    printf(" ref=%.4f z=%.1f", cases[c].ref_rd,
+           r->se > 0.0 ? (r->rd - cases[c].ref_rd) / r->se : 0.0);
+  }
+  if (cases[c].ref_specular >= 0.0) {
+    printf(" specular=%.4f specular_ref=%.4f", r->specular, cases[c].ref_specular);
+  }
+  /* CPU time of the whole process (all threads, OpenMP spinning included):
+   * well below threads × seconds means other work shared the machine. */
+  printf(" cpu_seconds=%.3f\n", r->cpu_seconds);
+}
+
+/* Only one thread count (for profiling): no scaling line. */
+static bool bench_case_single(case_id_t c, double photons, int repeat, int32_t threads) {
+  scene_t s;
+  if (!scene_create(c, threads, photons, &s)) return false;
+  run_t best = {.seconds = HUGE_VAL}, r;
+  bool ok = true;
+  for (int i = 0; ok && i < repeat; ++i) {
+    ok = scene_render(&s, &r);
+    if (ok && r.seconds < best.seconds) best = r;
+  }
+  if (ok) print_run(c, threads, &best);
+  fflush(stdout);
+  scene_destroy(&s);
+  return ok;
+}
+
+static bool bench_case(case_id_t c, double photons, int repeat) {
+  scene_t s1, s2;
+  if (!scene_create(c, 1, photons, &s1)) return false;
+  if (!scene_create(c, 2, photons, &s2)) {
+    scene_destroy(&s1);
+    return false;
+  }
+  run_t best1 = {.seconds = HUGE_VAL}, best2 = {.seconds = HUGE_VAL}, r1, r2;
+  bool ok = true, identical = true;
+  for (int i = 0; ok && i < repeat; ++i) {
+    ok = scene_render(&s1, &r1) && scene_render(&s2, &r2);
+    if (!ok) break;
+    if (r1.seconds < best1.seconds) best1 = r1;
+    if (r2.seconds < best2.seconds) best2 = r2;
+    /* Same seed, same photons: the thread count must not change a bit. */
+    if (r1.rd != r2.rd || r1.se != r2.se || r1.rd != best1.rd) identical = false;
+  }
+  if (ok) {
+    print_run(c, 1, &best1);
+    print_run(c, 2, &best2);
+    printf("%s scaling_2_over_1=%.2f identical=%s\n", cases[c].name, best1.seconds / best2.seconds,
+           identical ? "yes" : "NO");
+    fflush(stdout);
+  }
+  scene_destroy(&s2);
+  scene_destroy(&s1);
+  return ok;
+}
+
+static void usage(FILE *f) {
+  fprintf(f,
+          "usage: hetinv-bench-forward [--photons N] [--case a1|a1-eta|a1-het|all] [--repeat R]\n"
+          "                            [--threads 1|2]\n"
+          "  --photons N  photons per render (default %.0f)\n"
+          "  --case C     which case to run (default all)\n"
+          "  --repeat R   renders per thread count; the fastest is reported (default 1)\n"
+          "  --threads T  run only with T threads (1 or 2; for profiling: no scaling line)\n",
+          DEFAULT_PHOTONS);
+}
+
+static bool parse_number(const char *s, double lo, double hi, double *out) {
+  char *end;
+  errno = 0;
+  double v = strtod(s, &end);
+  if (errno != 0 || end == s || *end != '\0' || !(v >= lo && v <= hi) || v != floor(v))
+    return false;
+  *out = v;
+  return true;
+}
+
+int main(int argc, char **argv) {
+  double photons = DEFAULT_PHOTONS, repeat = 1, only_threads = 0;
+  int first = 0, last = CASE_COUNT - 1;
+  for (int i = 1; i < argc; ++i) {
+    const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+    if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+      usage(stdout);
+      return 0;
+    } else if (strcmp(a, "--photons") == 0 && v) {
+      if (!parse_number(v, 1, 281474976710655.0, &photons)) {
+        fprintf(stderr, "hetinv-bench-forward: --photons wants an integer >= 1, not '%s'\n", v);
+        return 2;
+      }
+      ++i;
+    } else if (strcmp(a, "--repeat") == 0 && v) {
+      if (!parse_number(v, 1, 1000, &repeat)) {
+        fprintf(stderr, "hetinv-bench-forward: --repeat wants an integer in [1, 1000], not '%s'\n",
+                v);
+        return 2;
+      }
+      ++i;
+    } else if (strcmp(a, "--threads") == 0 && v) {
+      if (!parse_number(v, 1, 2, &only_threads)) {
+        fprintf(stderr, "hetinv-bench-forward: --threads wants 1 or 2, not '%s'\n", v);
+        return 2;
+      }
+      ++i;
+    } else if (strcmp(a, "--case") == 0 && v) {
+      if (strcmp(v, "all") == 0) {
+        first = 0;
+        last = CASE_COUNT - 1;
+      } else {
+        int found = -1;
+        for (int c = 0; c < CASE_COUNT; ++c) {
+          if (strcmp(v, cases[c].name) == 0) found = c;
+        }
+        if (found < 0) {
+          fprintf(stderr, "hetinv-bench-forward: unknown case '%s'\n", v);
+          usage(stderr);
+          return 2;
+        }
+        first = last = found;
+      }
+      ++i;
+    } else {
+      fprintf(stderr, "hetinv-bench-forward: unknown or incomplete option '%s'\n", a);
+      usage(stderr);
+      return 2;
+    }
+  }
+  for (int c = first; c <= last; ++c) {
+    bool ok = only_threads > 0
+                  ? bench_case_single((case_id_t)c, photons, (int)repeat, (int32_t)only_threads)
+                  : bench_case((case_id_t)c, photons, (int)repeat);
+    if (!ok) return 1;
+  }
+  return 0;
+}

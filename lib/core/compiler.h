@@ -1,0 +1,21 @@
+/* Compiler-specific annotations, each with a portable fallback. */
+#ifndef HV_COMPILER_H
+#define HV_COMPILER_H
+
+#if defined(__GNUC__) || defined(__clang__)
+#define HV_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define HV_ALWAYS_INLINE
+#endif
+
+/* The photon loop is compiled twice, for x86-64-v3 (AVX2, BMI: a rounding
+ * instruction for floor, wider registers) and for the baseline, and the
+ * loader picks one (GNU ifunc). Floating-point contraction stays off in ISO
+ * C mode, so both give bitwise the same results. */
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__ELF__) && !defined(__SANITIZE_ADDRESS__)
+#define HV_TARGET_CLONES_X86_64_V3 __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define HV_TARGET_CLONES_X86_64_V3
+#endif
+
+#endif
