@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "core/compiler.h"
 #include "hetinv/medium.h"
 #include "hetinv/sampling.h"
 #include "transport/path_log.h"
@@ -40,7 +41,9 @@ typedef struct hv_ray {
 } hv_ray_t;
 
 /* Voxel of position p (inside or on the boundary) for travel along d: a
- * point on a voxel face belongs to the voxel the ray is entering. */
+ * point on a voxel face belongs to the voxel the ray is entering. In a
+ * uniform grid the forward pass never needs it: the voxel of a vertex is
+ * found only when a gradient score must be attributed (hv_vertex_voxel). */
 static inline void hv_ray_locate(const hv_grid_t *g, hv_ray_t *r) {
   r->k = 0;
   for (int a = 0; a < 3; ++a) {
@@ -52,6 +55,15 @@ static inline void hv_ray_locate(const hv_grid_t *g, hv_ray_t *r) {
     r->v[a] = i;
     r->k += (int64_t)i * g->stride[a];
   }
+}
+
+/* Linear index of the voxel holding the scattering vertex r, which a
+ * uniform grid's free flights do not keep up to date. */
+static inline int64_t hv_vertex_voxel(const hv_grid_t *g, const hv_ray_t *r) {
+  if (!g->uniform) return r->k;
+  hv_ray_t q = *r;
+  hv_ray_locate(g, &q);
+  return q.k;
 }
 
 /* Amanatides–Woo stepping state of a ray in its current voxel. */
@@ -104,21 +116,10 @@ static inline int hv_dda_advance(const hv_grid_t *g, hv_ray_t *r, hv_dda_t *s, i
   return 0;
 }
 
-/* hv_ray_march in a uniform grid: one multiplication, and one predictable
- * test that the collision lies in the box. It leaves r->v and r->k as they
- * were (all voxels are alike); code that needs the voxel re-locates the ray. */
-static inline int hv_ray_march_uniform(const hv_grid_t *g, hv_ray_t *r, double depth,
-                                       double *dist, hetinv_face_t *face) {
-  double x = depth * g->inv_sigma_t;
-  double q[3];
-  for (int i = 0; i < 3; ++i) q[i] = r->p[i] + x * r->d[i];
-  /* The common case, one predictable branch: the collision is inside the box. */
-  if ((q[0] >= g->lo[0]) & (q[0] <= g->hi[0]) & (q[1] >= g->lo[1]) & (q[1] <= g->hi[1]) &
-      (q[2] >= g->lo[2]) & (q[2] <= g->hi[2])) {
-    for (int i = 0; i < 3; ++i) r->p[i] = q[i];
-    *dist = x;
-    return 1;
-  }
+/* Moves the ray straight to the box's boundary without voxel stepping
+ * (uniform grids); r->v and r->k are left as they were. */
+static inline void hv_ray_exit_box(const hv_grid_t *g, hv_ray_t *r, double *dist,
+                                   hetinv_face_t *face) {
   double tb = HUGE_VAL;
   int ab = 0;
   for (int a = 0; a < 3; ++a) {
@@ -136,6 +137,24 @@ static inline int hv_ray_march_uniform(const hv_grid_t *g, hv_ray_t *r, double d
   r->p[ab] = r->d[ab] > 0.0 ? g->hi[ab] : g->lo[ab];
   *face = (hetinv_face_t)(2 * ab + (r->d[ab] > 0.0 ? 1 : 0));
   *dist = tb < 0.0 ? 0.0 : tb;
+}
+
+/* hv_ray_march in a uniform grid: one multiplication, and one predictable
+ * test that the collision lies in the box. It leaves r->v and r->k as they
+ * were (all voxels are alike); code that needs the voxel re-locates the ray. */
+static inline int hv_ray_march_uniform(const hv_grid_t *g, hv_ray_t *r, double depth,
+                                       double *dist, hetinv_face_t *face) {
+  double x = depth * g->inv_sigma_t;
+  double q[3];
+  for (int i = 0; i < 3; ++i) q[i] = r->p[i] + x * r->d[i];
+  /* The common case, one predictable branch: the collision is inside the box. */
+  if ((q[0] >= g->lo[0]) & (q[0] <= g->hi[0]) & (q[1] >= g->lo[1]) & (q[1] <= g->hi[1]) &
+      (q[2] >= g->lo[2]) & (q[2] <= g->hi[2])) {
+    for (int i = 0; i < 3; ++i) r->p[i] = q[i];
+    *dist = x;
+    return 1;
+  }
+  hv_ray_exit_box(g, r, dist, face);
   return 0;
 }
 
@@ -143,9 +162,17 @@ static inline int hv_ray_march_uniform(const hv_grid_t *g, hv_ray_t *r, double d
  * (returns 1: a collision at r->p) or reaches the boundary (returns 0: r->p
  * on face *face). *dist receives the distance travelled; r->k is the voxel
  * at the end. Segments go to @p log when it is not NULL. */
-static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth, double *dist,
+HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth,
+                                                double *dist,
                                hetinv_face_t *face, hv_path_log_t *log) {
-  if (g->uniform && !log) return hv_ray_march_uniform(g, r, depth, dist, face);
+  if (g->uniform) {
+    /* Gradient scores log the straight segment whole; it is split into
+     * voxels only if a splat follows it (hv_grad_apply_log). */
+    double p0[3] = {r->p[0], r->p[1], r->p[2]};
+    int collided = hv_ray_march_uniform(g, r, depth, dist, face);
+    if (log) hv_path_log_add_ray(log, p0, r->d, *dist);
+    return collided;
+  }
   hv_dda_t s;
   hv_dda_init(g, r, &s);
   double t = 0.0;
@@ -174,6 +201,12 @@ static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth, do
  * and sets *dist and *face. */
 static inline double hv_ray_to_boundary(const hv_grid_t *g, hv_ray_t *r, double *dist,
                                         hetinv_face_t *face, hv_path_log_t *log) {
+  if (g->uniform) {
+    double p0[3] = {r->p[0], r->p[1], r->p[2]};
+    hv_ray_exit_box(g, r, dist, face);
+    if (log) hv_path_log_add_ray(log, p0, r->d, *dist);
+    return g->sigma_t[0] * *dist;
+  }
   hv_dda_t s;
   hv_dda_init(g, r, &s);
   double t = 0.0, depth = 0.0;

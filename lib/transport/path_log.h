@@ -17,15 +17,24 @@
 
 typedef enum hv_log_kind {
   HV_LOG_SEGMENT, /* value = ℓ in voxel: ∂/∂σa = ∂/∂σs = -ℓ */
+  HV_LOG_RAY,     /* a straight segment not yet split into voxels (uniform grids) */
   HV_LOG_SCATTER, /* value = 1/σs of the vertex's voxel: ∂/∂σs */
   HV_LOG_PHASE,   /* value = ∂ log f_p / ∂g at the vertex */
 } hv_log_kind_t;
 
 typedef struct hv_log_entry {
-  int64_t voxel;
-  double value;
-  double cum;
   hv_log_kind_t kind;
+  double cum;
+  union {
+    struct {
+      int64_t voxel; /* < 0: not yet known; the voxel holding p */
+      double value;
+      double p[3];
+    } at;          /* SEGMENT, SCATTER, PHASE */
+    struct {
+      double p[3], d[3], length;
+    } ray;         /* RAY */
+  } u;
 } hv_log_entry_t;
 
 typedef struct hv_path_log {
@@ -37,6 +46,9 @@ typedef struct hv_path_log {
 } hv_path_log_t;
 
 void hv_path_log_add(hv_path_log_t *log, hv_log_kind_t kind, int64_t voxel, double value);
+void hv_path_log_add_ray(hv_path_log_t *log, const double p[3], const double d[3], double length);
+/* A vertex entry whose voxel is found from its position only if needed. */
+void hv_path_log_add_at(hv_path_log_t *log, hv_log_kind_t kind, const double p[3], double value);
 void hv_path_log_release(hv_path_log_t *log);
 
 static inline void hv_path_log_reset(hv_path_log_t *log) {

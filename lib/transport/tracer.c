@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "core/compiler.h"
+#include "core/fastmath.h"
 #include "medium/fresnel.h"
 #include "medium/phase.h"
 #include "sampling/emitter_internal.h"
@@ -16,18 +17,49 @@
 #define HV_CHAIN_CUTOFF 1e-7
 #define HV_CHAIN_MAX_BOUNCES 64
 
-void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_path_log_t *log) {
+/* -length·w to σa and σs of every voxel the straight segment crosses. */
+static void add_ray(hv_grad_tally_t *gt, const hv_grid_t *grid, const double p[3],
+                    const double d[3], double length, double w) {
+  hv_ray_t r;
+  memcpy(r.p, p, sizeof r.p);
+  memcpy(r.d, d, sizeof r.d);
+  hv_ray_locate(grid, &r);
+  hv_dda_t s;
+  hv_dda_init(grid, &r, &s);
+  hetinv_face_t face;
+  for (double t = 0.0; t < length;) {
+    int a = hv_dda_axis(&s);
+    double end = s.t_next[a] < length ? s.t_next[a] : length;
+    hv_grad_add(gt, HETINV_PARAM_SIGMA_A, r.k, -(end - t) * w);
+    hv_grad_add(gt, HETINV_PARAM_SIGMA_S, r.k, -(end - t) * w);
+    t = end;
+    if (t >= length || !hv_dda_advance(grid, &r, &s, a, t, &face)) break;
+  }
+}
+
+void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path_log_t *log) {
   for (size_t i = 0; i < log->count; ++i) {
     const hv_log_entry_t *e = &log->entries[i];
     double w = log->cum - e->cum;
     if (w == 0.0) continue;
+    if (e->kind == HV_LOG_RAY) {
+      add_ray(gt, grid, e->u.ray.p, e->u.ray.d, e->u.ray.length, w);
+      continue;
+    }
+    int64_t k = e->u.at.voxel;
+    if (k < 0) {
+      hv_ray_t r = {.p = {e->u.at.p[0], e->u.at.p[1], e->u.at.p[2]}, .d = {0.0, 0.0, 0.0}};
+      hv_ray_locate(grid, &r);
+      k = r.k;
+    }
     switch (e->kind) {
       case HV_LOG_SEGMENT:
-        hv_grad_add(gt, HETINV_PARAM_SIGMA_A, e->voxel, -e->value * w);
-        hv_grad_add(gt, HETINV_PARAM_SIGMA_S, e->voxel, -e->value * w);
+        hv_grad_add(gt, HETINV_PARAM_SIGMA_A, k, -e->u.at.value * w);
+        hv_grad_add(gt, HETINV_PARAM_SIGMA_S, k, -e->u.at.value * w);
         break;
-      case HV_LOG_SCATTER: hv_grad_add(gt, HETINV_PARAM_SIGMA_S, e->voxel, e->value * w); break;
-      case HV_LOG_PHASE: hv_grad_add(gt, HETINV_PARAM_G, e->voxel, e->value * w); break;
+      case HV_LOG_SCATTER: hv_grad_add(gt, HETINV_PARAM_SIGMA_S, k, e->u.at.value * w); break;
+      case HV_LOG_PHASE: hv_grad_add(gt, HETINV_PARAM_G, k, e->u.at.value * w); break;
+      case HV_LOG_RAY: break;
     }
   }
 }
@@ -108,8 +140,9 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
     if (chain && chain->cum != 0.0) {
       /* The chain's own segments and the vertex's phase toward w0 score only
        * this chain's splats; its total joins the path's splats. */
-      hv_grad_apply_log(gt, chain);
-      hv_grad_add(gt, HETINV_PARAM_G, vertex->k, hv_hg_dlog_dg(g, cos_theta) * chain->cum);
+      hv_grad_apply_log(gt, grid, chain);
+      hv_grad_add(gt, HETINV_PARAM_G, hv_vertex_voxel(grid, vertex),
+                  hv_hg_dlog_dg(g, cos_theta) * chain->cum);
       gt->path.cum += chain->cum;
     }
   }
@@ -160,6 +193,17 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
   return 1;
 }
 
+/* A score at scattering vertex r; in a uniform grid its voxel is found
+ * later, and only if a splat follows. */
+static inline void log_vertex(const hv_grid_t *grid, hv_path_log_t *log, hv_log_kind_t kind,
+                              const hv_ray_t *r, double value) {
+  if (grid->uniform) {
+    hv_path_log_add_at(log, kind, r->p, value);
+  } else {
+    hv_path_log_add(log, kind, r->k, value);
+  }
+}
+
 /* The photon loop proper; hv_trace_photon wraps it with the score log. */
 HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t *plan,
                                           hv_rng_t *rng, hv_tally_t *tally) {
@@ -191,7 +235,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
      * stream's buffered outputs, whose counters are never these. */
     philox4x32_ctr_t blk = hv_rng_block(rng);
     double u_depth = hv_unit_from_bits((uint64_t)blk.v[0] << 32 | blk.v[1]);
-    int collided = hv_ray_march(grid, &r, -log(1.0 - u_depth), &dist, &face, plog);
+    int collided = hv_ray_march(grid, &r, -hv_log(1.0 - u_depth), &dist, &face, plog);
     tau += dist;
     if (!collided) {
       if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) break;
@@ -206,7 +250,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
       tally->stats[HV_STAT_TRUNCATED] += w;
       break;
     }
-    if (plog) hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
+    if (plog) log_vertex(grid, plog, HV_LOG_SCATTER, &r, 1.0 / grid->sigma_s[r.k]);
     double g = grid->g[r.k];
     if (scatterings >= tr->min_scattering) {
       for (int32_t i = 0; i < plan->ortho_count; ++i) {
@@ -216,7 +260,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
     double d_new[3];
     double cos_theta = hv_phase_sample((hv_phase_t){HV_PHASE_HG, g}, r.d, hv_unit_from_u32(blk.v[2]),
                                        hv_unit_from_u32(blk.v[3]), d_new);
-    if (plog) hv_path_log_add(plog, HV_LOG_PHASE, r.k, hv_hg_dlog_dg(g, cos_theta));
+    if (plog) log_vertex(grid, plog, HV_LOG_PHASE, &r, hv_hg_dlog_dg(g, cos_theta));
     memcpy(r.d, d_new, sizeof r.d);
     if (w < tr->roulette_weight) {
       if (hv_rng_uniform(rng) >= tr->roulette_survival) break;
@@ -231,5 +275,5 @@ void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng
   hv_grad_tally_t *gt = tally->grad;
   if (gt) hv_path_log_reset(&gt->path);
   trace(tr, plan, rng, tally);
-  if (gt) hv_grad_apply_log(gt, &gt->path);
+  if (gt) hv_grad_apply_log(gt, tr->grid, &gt->path);
 }

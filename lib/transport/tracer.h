@@ -50,7 +50,7 @@ static inline void hv_grad_add(hv_grad_tally_t *gt, int param, int64_t voxel, do
 }
 
 /* Adds every entry's score times (log->cum - entry.cum) to the gradient. */
-void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_path_log_t *log);
+void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path_log_t *log);
 
 /* Where one batch of photons adds what it scores. */
 typedef struct hv_tally {
