@@ -13,9 +13,13 @@
 
 /* A specular chain of a connection stops when its remaining throughput
  * falls below this fraction of its start: the truncation is far below any
- * Monte Carlo error bar. */
+ * Monte Carlo error bar. Every hit on a face of the sensor's axis loses at
+ * least 1 - R > 0 (no valid sensor direction is totally reflected there),
+ * so chains end; total internal reflections at side faces cost nothing and
+ * may be many in a narrow box. The bounce limit only guards against a
+ * pathological R ≈ 1 and is far beyond any real chain. */
 #define HV_CHAIN_CUTOFF 1e-7
-#define HV_CHAIN_MAX_BOUNCES 64
+#define HV_CHAIN_MAX_BOUNCES 1000000
 
 /* -length·w to σa and σs of every voxel the straight segment crosses. */
 static void add_ray(hv_grad_tally_t *gt, const hv_grid_t *grid, const double p[3],
@@ -234,8 +238,9 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
      * 32 + 32 for the angles. Rare draws (Fresnel, roulette) come from the
      * stream's buffered outputs, whose counters are never these. */
     philox4x32_ctr_t blk = hv_rng_block(rng);
-    double u_depth = hv_unit_from_bits((uint64_t)blk.v[0] << 32 | blk.v[1]);
-    int collided = hv_ray_march(grid, &r, -hv_log(1.0 - u_depth), &dist, &face, plog);
+    /* u in (0, 1), never 0 or 1: the optical depth is finite and > 0. */
+    double u_depth = hv_open_unit_from_bits((uint64_t)blk.v[0] << 32 | blk.v[1]);
+    int collided = hv_ray_march(grid, &r, -hv_log(u_depth), &dist, &face, plog);
     tau += dist;
     if (!collided) {
       if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) break;

@@ -1,0 +1,106 @@
+#include "test_gradient_common.h"
+
+#include <math.h>
+#include <time.h>
+
+/* Continued fraction of the incomplete beta function (modified Lentz). */
+static double beta_cf(double a, double b, double x) {
+  const double tiny = 1e-300;
+  double qab = a + b, qap = a + 1.0, qam = a - 1.0;
+  double c = 1.0, d = 1.0 - qab * x / qap;
+  if (fabs(d) < tiny) d = tiny;
+  d = 1.0 / d;
+  double h = d;
+  for (int m = 1; m <= 1000; ++m) {
+    double m2 = 2.0 * m;
+    double aa = m * (b - m) * x / ((qam + m2) * (a + m2));
+    d = 1.0 + aa * d;
+    if (fabs(d) < tiny) d = tiny;
+    c = 1.0 + aa / c;
+    if (fabs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    h *= d * c;
+    aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
+    d = 1.0 + aa * d;
+    if (fabs(d) < tiny) d = tiny;
+    c = 1.0 + aa / c;
+    if (fabs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    double del = d * c;
+    h *= del;
+    if (fabs(del - 1.0) < 1e-15) break;
+  }
+  return h;
+}
+
+/* Regularised incomplete beta function I_x(a, b). */
+static double beta_inc(double a, double b, double x) {
+  if (x <= 0.0) return 0.0;
+  if (x >= 1.0) return 1.0;
+  double front = exp(lgamma(a + b) - lgamma(a) - lgamma(b) + a * log(x) + b * log1p(-x));
+  if (x < (a + 1.0) / (a + b + 2.0)) return front * beta_cf(a, b, x) / a;
+  return 1.0 - front * beta_cf(b, a, 1.0 - x) / b;
+}
+
+double grad_t_tail(double t, double dof) {
+  if (!isfinite(dof) || dof > 1e7) return erfc(fabs(t) / sqrt(2.0));
+  return beta_inc(0.5 * dof, 0.5, dof / (dof + t * t));
+}
+
+double grad_t_max(double dof, int comparisons) {
+  double p = VAL_FAMILY_ALPHA / (comparisons > 0 ? comparisons : 1);
+  double lo = 0.0, hi = 1e4; /* the tail decreases in t */
+  for (int i = 0; i < 200; ++i) {
+    double mid = 0.5 * (lo + hi);
+    if (grad_t_tail(mid, dof) > p) lo = mid; else hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+double grad_welch_dof(double se1, double dof1, double se2, double dof2) {
+  double v1 = se1 * se1, v2 = se2 * se2;
+  double den = (v1 > 0.0 ? v1 * v1 / dof1 : 0.0) + (v2 > 0.0 ? v2 * v2 / dof2 : 0.0);
+  return den > 0.0 ? (v1 + v2) * (v1 + v2) / den : (double)INFINITY;
+}
+
+int grad_compare(const char *case_name, double ref, double ref_se, double ref_dof, double est,
+                 double se, double est_dof, int comparisons, uint64_t seed) {
+  double dof = grad_welch_dof(se, est_dof, ref_se, ref_dof);
+  return val_compare("GRAD", case_name, ref, ref_se, est, se, grad_t_max(dof, comparisons), seed);
+}
+
+void grad_mean_se(const double *x, int n, double *mean, double *se) {
+  double m = 0.0;
+  for (int i = 0; i < n; ++i) m += x[i];
+  m /= n;
+  double ss = 0.0;
+  for (int i = 0; i < n; ++i) ss += (x[i] - m) * (x[i] - m);
+  *mean = m;
+  *se = sqrt(ss / ((double)n - 1.0) / n);
+}
+
+double grad_uniform(uint64_t *state) {
+  uint64_t z = (*state += UINT64_C(0x9e3779b97f4a7c15));
+  z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
+  z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
+  z ^= z >> 31;
+  return (double)(z >> 11) * 0x1.0p-53;
+}
+
+hetinv_medium_t *grad_perturbed(const hetinv_medium_t *base, const int32_t voxel[3],
+                                hetinv_param_t param, double value) {
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_medium_clone(base, &m));
+  double v[3];
+  assert_ok(hetinv_medium_get_voxel(base, voxel[0], voxel[1], voxel[2], &v[0], &v[1], &v[2]));
+  v[param] = value;
+  assert_ok(hetinv_medium_set_voxel(m, voxel[0], voxel[1], voxel[2], v[0], v[1], v[2]));
+  assert_ok(hetinv_medium_commit(m));
+  return m;
+}
+
+double grad_now(void) {
+  struct timespec ts;
+  if (timespec_get(&ts, TIME_UTC) != TIME_UTC) return 0.0;
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
