@@ -21,10 +21,13 @@ static inline double hv_log(double x) {
     m *= 0.5;
     ++e;
   }
-  double s = (m - 1.0) / (m + 1.0), s2 = s * s;
-  double series =
-      1.0 + s2 * (1.0 / 3 + s2 * (1.0 / 5 + s2 * (1.0 / 7 + s2 * (1.0 / 9 + s2 * (1.0 / 11 +
-      s2 * (1.0 / 13 + s2 * (1.0 / 15 + s2 * (1.0 / 17 + s2 * (1.0 / 19 + s2 * (1.0 / 21))))))))));
+  double s = (m - 1.0) / (m + 1.0), s2 = s * s, s4 = s2 * s2;
+  /* Σ_{k=0..10} s2^k/(2k+1): the small high-order terms as a short tree
+   * (Estrin) so they do not form a long chain of dependent operations, the
+   * three leading terms last and in order (Horner), where the accuracy is. */
+  double high = ((1.0 / 7 + s2 * (1.0 / 9)) + s4 * (1.0 / 11 + s2 * (1.0 / 13))) +
+                s4 * s4 * ((1.0 / 15 + s2 * (1.0 / 17)) + s4 * (1.0 / 19 + s2 * (1.0 / 21)));
+  double series = 1.0 + s2 * (1.0 / 3 + s2 * (1.0 / 5 + s2 * high));
   /* e·ln2 split in a high part exact for |e| < 2^11 and a low correction. */
   return (double)e * 6.93147180369123816490e-01 + ((double)e * 1.90821492927058770002e-10 + 2.0 * s * series);
 }
