@@ -25,6 +25,9 @@
  *    The same argument gives further exact zeros, listed at unreachable():
  *    the bottom voxel of column 0 for the oblique pixel, and voxel (2,0,0)
  *    and the g of columns 1–2 for a detector over the whole top face.
+ *    Checked twice: with every voxel different, and with every voxel alike
+ *    (the library's uniform-grid path logs whole straight segments and
+ *    splits them into voxels only when a splat follows them).
  *    Controls that the zero is not vacuous: the same scene gives non-zero
  *    σa and σs gradients in column 1 when a hemispherical detector covers
  *    the whole top face (once-scattered light crosses it to get there),
@@ -56,7 +59,10 @@ typedef struct column_scene {
   hetinv_param_map_t *map;
 } column_scene_t;
 
-static void column_scene_build(column_scene_t *s) {
+/* uniform: every voxel alike (the library then takes its uniform-grid path,
+ * which logs whole straight segments and splits them into voxels only
+ * when a splat follows); otherwise every voxel different. */
+static void column_scene_build(column_scene_t *s, int uniform) {
   s->ctx = val_context(seed, 1);
   assert_ok(hetinv_medium_create(s->ctx, (double[]){0, 0, 0}, (double[]){3, 1, 2}, (int32_t[]){3, 1, 2},
                                  &s->medium));
@@ -64,8 +70,10 @@ static void column_scene_build(column_scene_t *s) {
   uint64_t table = 0xd0d0;
   for (int32_t z = 0; z < 2; ++z) {
     for (int32_t x = 0; x < 3; ++x) {
-      assert_ok(hetinv_medium_set_voxel(s->medium, x, 0, z, 0.2 + 0.8 * grad_uniform(&table),
-                                        0.5 + 1.5 * grad_uniform(&table), 0.1 + 0.5 * grad_uniform(&table)));
+      double sa = 0.2 + 0.8 * grad_uniform(&table), ss = 0.5 + 1.5 * grad_uniform(&table);
+      double g = 0.1 + 0.5 * grad_uniform(&table);
+      if (uniform) sa = 0.5, ss = 1.2, g = 0.3;
+      assert_ok(hetinv_medium_set_voxel(s->medium, x, 0, z, sa, ss, g));
     }
   }
   assert_ok(hetinv_medium_commit(s->medium));
@@ -135,10 +143,9 @@ static int unreachable(int value, int k, hetinv_param_t p) {
   }
 }
 
-static void unreachable_voxels_have_exactly_zero_gradient(void **state) {
-  (void)state;
+static void check_unreachable(int uniform) {
   column_scene_t s;
-  column_scene_build(&s);
+  column_scene_build(&s, uniform);
   hetinv_measurements_t *set = NULL;
   assert_ok(hetinv_measurements_create(s.ctx, &set));
   assert_ok(hetinv_measurements_add(set, s.beam, s.top0, s.steady, NULL));
@@ -157,8 +164,8 @@ static void unreachable_voxels_have_exactly_zero_gradient(void **state) {
       for (int k = 0; k < 6; ++k) {
         double v = grad[p * 6 + k], se = grad_se[p * 6 + k];
         char what[96];
-        snprintf(what, sizeof what, "unreachable/%s/%s/(%d,0,%d)", names[n], hetinv_param_name(p),
-                 k % 3, k / 3);
+        snprintf(what, sizeof what, "unreachable/%s/%s/%s/(%d,0,%d)", uniform ? "uniform" : "varied",
+                 names[n], hetinv_param_name(p), k % 3, k / 3);
         if (!unreachable(n, k, p)) {
           val_note("GRAD", what, v, se);
           continue;
@@ -185,10 +192,9 @@ static void unreachable_voxels_have_exactly_zero_gradient(void **state) {
  * other columns comes back). Only well-populated entries are required to
  * be non-zero (so that the check holds at any photon count); the rest are
  * printed. */
-static void the_zero_is_not_vacuous(void **state) {
-  (void)state;
+static void check_not_vacuous(int uniform) {
   column_scene_t s;
-  column_scene_build(&s);
+  column_scene_build(&s, uniform);
   hetinv_measurements_t *set = NULL;
   assert_ok(hetinv_measurements_create(s.ctx, &set));
   assert_ok(hetinv_measurements_add(set, s.beam, s.top0, s.steady, NULL));
@@ -217,8 +223,8 @@ static void the_zero_is_not_vacuous(void **state) {
         int required = cases[c].required[0] == k || cases[c].required[1] == k;
         if (!required && cases[c].max_scattering == 1) continue; /* printed by the other test */
         char what[96];
-        snprintf(what, sizeof what, "reachable/%s/%s/(%d,0,%d)", cases[c].name, hetinv_param_name(p),
-                 k % 3, k / 3);
+        snprintf(what, sizeof what, "reachable/%s/%s/%s/(%d,0,%d)", uniform ? "uniform" : "varied",
+                 cases[c].name, hetinv_param_name(p), k % 3, k / 3);
         val_note("GRAD", what, v, se);
         if (required && !(v != 0.0 && se > 0.0)) {
           printf("  ... expected a non-zero gradient\n");
@@ -230,6 +236,22 @@ static void the_zero_is_not_vacuous(void **state) {
   hetinv_measurements_destroy(&set);
   column_scene_destroy(&s);
   val_assert_all_passed(failures);
+}
+
+static void unreachable_voxels_have_exactly_zero_gradient(void **state) {
+  (void)state;
+  check_unreachable(0);
+}
+
+static void unreachable_voxels_have_exactly_zero_gradient_uniform_grid(void **state) {
+  (void)state;
+  check_unreachable(1);
+}
+
+static void the_zero_is_not_vacuous(void **state) {
+  (void)state;
+  check_not_vacuous(0);
+  check_not_vacuous(1);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -350,6 +372,7 @@ int main(void) {
   seed = val_seed(SEED);
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(unreachable_voxels_have_exactly_zero_gradient),
+      cmocka_unit_test(unreachable_voxels_have_exactly_zero_gradient_uniform_grid),
       cmocka_unit_test(the_zero_is_not_vacuous),
       cmocka_unit_test(gradient_is_bitwise_identical_across_thread_counts),
   };
