@@ -64,8 +64,10 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
     return r;
   }
   const double *param = est->param;
+  hv_exp_table_init(&pass->exp_table);
   pass->tracer = (hv_tracer_t){
       .grid = &pass->grid,
+      .exp_table = &pass->exp_table,
       .roulette_weight = param[HETINV_ESTIMATOR_ROULETTE_WEIGHT],
       .roulette_survival = param[HETINV_ESTIMATOR_ROULETTE_SURVIVAL],
       .min_scattering = (int32_t)param[HETINV_ESTIMATOR_MIN_SCATTERING],

@@ -11,6 +11,7 @@ typedef struct hv_pass {
   hv_grid_t grid;
   hv_plans_t plans;
   hv_tracer_t tracer;
+  hv_exp_table_t exp_table;
   uint64_t seed, photons;
   uint32_t stream;
   int32_t batches;

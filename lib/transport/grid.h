@@ -179,7 +179,7 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
   for (;;) {
     double seg = hv_dda_tmin(&s) - t, st = g->sigma_t[r->k];
     if (st * seg >= depth) { /* collision inside this voxel */
-      double x = depth / st;
+      double x = st > 0.0 ? depth / st : 0.0; /* depth 0 in a vacuum voxel */
       if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
       t += x;
       for (int i = 0; i < 3; ++i) r->p[i] += t * r->d[i];

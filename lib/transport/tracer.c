@@ -4,7 +4,6 @@
 #include <string.h>
 
 #include "core/compiler.h"
-#include "core/fastmath.h"
 #include "medium/fresnel.h"
 #include "medium/phase.h"
 #include "sampling/emitter_internal.h"
@@ -238,9 +237,8 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
      * 32 + 32 for the angles. Rare draws (Fresnel, roulette) come from the
      * stream's buffered outputs, whose counters are never these. */
     philox4x32_ctr_t blk = hv_rng_block(rng);
-    /* u in (0, 1), never 0 or 1: the optical depth is finite and > 0. */
-    double u_depth = hv_open_unit_from_bits((uint64_t)blk.v[0] << 32 | blk.v[1]);
-    int collided = hv_ray_march(grid, &r, -hv_log(u_depth), &dist, &face, plog);
+    double depth = hv_exp_sample(tr->exp_table, (uint64_t)blk.v[0] << 32 | blk.v[1], rng);
+    int collided = hv_ray_march(grid, &r, depth, &dist, &face, plog);
     tau += dist;
     if (!collided) {
       if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) break;

@@ -6,6 +6,7 @@
 
 #include <stdint.h>
 
+#include "core/exponential.h"
 #include "core/rng.h"
 #include "transport/grid.h"
 #include "transport/plan.h"
@@ -21,6 +22,7 @@ enum hv_stat {
 
 typedef struct hv_tracer {
   const hv_grid_t *grid;
+  const hv_exp_table_t *exp_table; /* free-flight optical depths */
   double roulette_weight, roulette_survival;
   int32_t min_scattering, max_scattering; /* max 0: unlimited */
 } hv_tracer_t;
