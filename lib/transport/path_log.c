@@ -48,6 +48,7 @@ void hv_path_log_add_ray(hv_path_log_t *log, const double p[3], const double d[3
   memcpy(e->u.ray.p, p, sizeof e->u.ray.p);
   memcpy(e->u.ray.d, d, sizeof e->u.ray.d);
   e->u.ray.length = length;
+  e->u.ray.scatter = 0.0;
 }
 
 void hv_path_log_release(hv_path_log_t *log) {

@@ -33,6 +33,7 @@ typedef struct hv_log_entry {
     } at;          /* SEGMENT, SCATTER, PHASE */
     struct {
       double p[3], d[3], length;
+      double scatter; /* 1/σs of a scattering vertex at its end, or 0 */
     } ray;         /* RAY */
   } u;
 } hv_log_entry_t;
@@ -47,6 +48,13 @@ typedef struct hv_path_log {
 
 void hv_path_log_add(hv_path_log_t *log, hv_log_kind_t kind, int64_t voxel, double value);
 void hv_path_log_add_ray(hv_path_log_t *log, const double p[3], const double d[3], double length);
+/* Puts the σs score of the scattering vertex that ends the last RAY entry
+ * into that entry (same running total: no splat happens in between). */
+static inline void hv_path_log_set_ray_scatter(hv_path_log_t *log, double value) {
+  if (log->count > 0 && log->entries[log->count - 1].kind == HV_LOG_RAY) {
+    log->entries[log->count - 1].u.ray.scatter = value;
+  }
+}
 /* A vertex entry whose voxel is found from its position only if needed. */
 void hv_path_log_add_at(hv_path_log_t *log, hv_log_kind_t kind, const double p[3], double value);
 void hv_path_log_release(hv_path_log_t *log);

@@ -20,9 +20,10 @@
 #define HV_CHAIN_CUTOFF 1e-7
 #define HV_CHAIN_MAX_BOUNCES 1000000
 
-/* -length·w to σa and σs of every voxel the straight segment crosses. */
-static void add_ray(hv_grad_tally_t *gt, const hv_grid_t *grid, const double p[3],
-                    const double d[3], double length, double w) {
+/* -length·w to σa and σs of every voxel the straight segment crosses;
+ * returns the voxel where it ends. */
+static int64_t add_ray(hv_grad_tally_t *gt, const hv_grid_t *grid, const double p[3],
+                       const double d[3], double length, double w) {
   hv_ray_t r;
   memcpy(r.p, p, sizeof r.p);
   memcpy(r.d, d, sizeof r.d);
@@ -33,33 +34,35 @@ static void add_ray(hv_grad_tally_t *gt, const hv_grid_t *grid, const double p[3
   for (double t = 0.0; t < length;) {
     int a = hv_dda_axis(&s);
     double end = s.t_next[a] < length ? s.t_next[a] : length;
-    hv_grad_add(gt, HETINV_PARAM_SIGMA_A, r.k, -(end - t) * w);
-    hv_grad_add(gt, HETINV_PARAM_SIGMA_S, r.k, -(end - t) * w);
+    hv_grad_add_extinction(gt, r.k, -(end - t) * w);
     t = end;
     if (t >= length || !hv_dda_advance(grid, &r, &s, a, t, &face)) break;
   }
+  return r.k;
 }
 
 void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path_log_t *log) {
+  int64_t vertex = -1; /* voxel at the end of the last ray split, if known */
   for (size_t i = 0; i < log->count; ++i) {
     const hv_log_entry_t *e = &log->entries[i];
     double w = log->cum - e->cum;
-    if (w == 0.0) continue;
     if (e->kind == HV_LOG_RAY) {
-      add_ray(gt, grid, e->u.ray.p, e->u.ray.d, e->u.ray.length, w);
+      vertex = -1;
+      if (w == 0.0) continue;
+      vertex = add_ray(gt, grid, e->u.ray.p, e->u.ray.d, e->u.ray.length, w);
+      if (e->u.ray.scatter != 0.0) hv_grad_add(gt, HETINV_PARAM_SIGMA_S, vertex, e->u.ray.scatter * w);
       continue;
     }
+    if (w == 0.0) continue;
     int64_t k = e->u.at.voxel;
+    if (k < 0) k = vertex; /* the vertex that ended the last ray */
     if (k < 0) {
       hv_ray_t r = {.p = {e->u.at.p[0], e->u.at.p[1], e->u.at.p[2]}, .d = {0.0, 0.0, 0.0}};
       hv_ray_locate(grid, &r);
       k = r.k;
     }
     switch (e->kind) {
-      case HV_LOG_SEGMENT:
-        hv_grad_add(gt, HETINV_PARAM_SIGMA_A, k, -e->u.at.value * w);
-        hv_grad_add(gt, HETINV_PARAM_SIGMA_S, k, -e->u.at.value * w);
-        break;
+      case HV_LOG_SEGMENT: hv_grad_add_extinction(gt, k, -e->u.at.value * w); break;
       case HV_LOG_SCATTER: hv_grad_add(gt, HETINV_PARAM_SIGMA_S, k, e->u.at.value * w); break;
       case HV_LOG_PHASE: hv_grad_add(gt, HETINV_PARAM_G, k, e->u.at.value * w); break;
       case HV_LOG_RAY: break;
@@ -196,17 +199,6 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
   return 1;
 }
 
-/* A score at scattering vertex r; in a uniform grid its voxel is found
- * later, and only if a splat follows. */
-static inline void log_vertex(const hv_grid_t *grid, hv_path_log_t *log, hv_log_kind_t kind,
-                              const hv_ray_t *r, double value) {
-  if (grid->uniform) {
-    hv_path_log_add_at(log, kind, r->p, value);
-  } else {
-    hv_path_log_add(log, kind, r->k, value);
-  }
-}
-
 /* The photon loop proper; hv_trace_photon wraps it with the score log. */
 HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t *plan,
                                           hv_rng_t *rng, hv_tally_t *tally) {
@@ -253,7 +245,13 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
       tally->stats[HV_STAT_TRUNCATED] += w;
       break;
     }
-    if (plog) log_vertex(grid, plog, HV_LOG_SCATTER, &r, 1.0 / grid->sigma_s[r.k]);
+    if (plog) {
+      if (grid->uniform) {
+        hv_path_log_set_ray_scatter(plog, 1.0 / grid->sigma_s[r.k]); /* the flight just logged */
+      } else {
+        hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
+      }
+    }
     double g = grid->g[r.k];
     if (scatterings >= tr->min_scattering) {
       for (int32_t i = 0; i < plan->ortho_count; ++i) {
@@ -263,7 +261,14 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
     double d_new[3];
     double cos_theta = hv_phase_sample((hv_phase_t){HV_PHASE_HG, g}, r.d, hv_unit_from_u32(blk.v[2]),
                                        hv_unit_from_u32(blk.v[3]), d_new);
-    if (plog) log_vertex(grid, plog, HV_LOG_PHASE, &r, hv_hg_dlog_dg(g, cos_theta));
+    if (plog) {
+      double score = hv_hg_dlog_dg(g, cos_theta);
+      if (grid->uniform) {
+        hv_path_log_add_at(plog, HV_LOG_PHASE, r.p, score); /* voxel found when applied */
+      } else {
+        hv_path_log_add(plog, HV_LOG_PHASE, r.k, score);
+      }
+    }
     memcpy(r.d, d_new, sizeof r.d);
     if (w < tr->roulette_weight) {
       if (hv_rng_uniform(rng) >= tr->roulette_survival) break;

@@ -51,6 +51,16 @@ static inline void hv_grad_add(hv_grad_tally_t *gt, int param, int64_t voxel, do
   }
 }
 
+/* Adds amount to both σa and σs of voxel: a segment's transmittance score. */
+static inline void hv_grad_add_extinction(hv_grad_tally_t *gt, int64_t voxel, double amount) {
+  gt->grad[(size_t)voxel] += amount;
+  gt->grad[gt->voxels + (size_t)voxel] += amount;
+  if (!gt->touched[voxel]) {
+    gt->touched[voxel] = 1;
+    gt->touched_list[gt->touched_count++] = voxel;
+  }
+}
+
 /* Adds every entry's score times (log->cum - entry.cum) to the gradient. */
 void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path_log_t *log);
 
