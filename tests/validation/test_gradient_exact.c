@@ -110,6 +110,10 @@ static void column_scene_destroy(column_scene_t *s) {
 static void gradient_of(column_scene_t *s, hetinv_measurements_t *set, int max_scattering, int n,
                         double grad[18], double grad_se[18]) {
   hetinv_estimator_t *est = val_estimator(s->ctx, 2e5);
+  /* Not scaled down: the zeros hold at any count, but the controls of
+   * check_not_vacuous need enough photons to reach the bottom voxel, once
+   * scattered, and come back out (at 10^4 photons none may). */
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, 2e5));
   assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_MAX_SCATTERING, max_scattering));
   size_t count = hetinv_measurements_value_count(set);
   double *cot = calloc(count, sizeof *cot);
