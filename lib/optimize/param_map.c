@@ -239,6 +239,12 @@ HETINV_API hetinv_result_t hetinv_param_map_apply(const hetinv_param_map_t *map,
  * `normalise`, divided by Σ weight (an average). False if out of memory. */
 static bool pull(const hetinv_param_map_t *map, const double *const in[HETINV_PARAM_COUNT],
                  double *out, bool normalise) {
+  if (map->cell_count == map->voxel_count) { /* identity: each cell is its voxel */
+    for (int32_t f = 0; f < map->free_count; ++f) {
+      memcpy(out + (size_t)f * map->cell_count, in[map->free_params[f]], map->cell_count * sizeof(double));
+    }
+    return true;
+  }
   memset(out, 0, hetinv_param_map_size(map) * sizeof(double));
   for (int32_t f = 0; f < map->free_count; ++f) {
     const double *src = in[map->free_params[f]];
