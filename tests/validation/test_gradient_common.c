@@ -3,48 +3,10 @@
 #include <math.h>
 #include <time.h>
 
-/* Continued fraction of the incomplete beta function (modified Lentz). */
-static double beta_cf(double a, double b, double x) {
-  const double tiny = 1e-300;
-  double qab = a + b, qap = a + 1.0, qam = a - 1.0;
-  double c = 1.0, d = 1.0 - qab * x / qap;
-  if (fabs(d) < tiny) d = tiny;
-  d = 1.0 / d;
-  double h = d;
-  for (int m = 1; m <= 1000; ++m) {
-    double m2 = 2.0 * m;
-    double aa = m * (b - m) * x / ((qam + m2) * (a + m2));
-    d = 1.0 + aa * d;
-    if (fabs(d) < tiny) d = tiny;
-    c = 1.0 + aa / c;
-    if (fabs(c) < tiny) c = tiny;
-    d = 1.0 / d;
-    h *= d * c;
-    aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
-    d = 1.0 + aa * d;
-    if (fabs(d) < tiny) d = tiny;
-    c = 1.0 + aa / c;
-    if (fabs(c) < tiny) c = tiny;
-    d = 1.0 / d;
-    double del = d * c;
-    h *= del;
-    if (fabs(del - 1.0) < 1e-15) break;
-  }
-  return h;
-}
-
-/* Regularised incomplete beta function I_x(a, b). */
-static double beta_inc(double a, double b, double x) {
-  if (x <= 0.0) return 0.0;
-  if (x >= 1.0) return 1.0;
-  double front = exp(lgamma(a + b) - lgamma(a) - lgamma(b) + a * log(x) + b * log1p(-x));
-  if (x < (a + 1.0) / (a + b + 2.0)) return front * beta_cf(a, b, x) / a;
-  return 1.0 - front * beta_cf(b, a, 1.0 - x) / b;
-}
-
+/* Two-sided Student-t tail P(|T| > t) for real-valued degrees of freedom. */
 double grad_t_tail(double t, double dof) {
   if (!isfinite(dof) || dof > 1e7) return erfc(fabs(t) / sqrt(2.0));
-  return beta_inc(0.5 * dof, 0.5, dof / (dof + t * t));
+  return val_beta_inc(0.5 * dof, 0.5, dof / (dof + t * t));
 }
 
 double grad_t_max(double dof, int comparisons) {

@@ -45,7 +45,7 @@ static double beta_cf(double a, double b, double x) {
 }
 
 /* Regularised incomplete beta I_x(a, b). */
-static double beta_inc(double a, double b, double x) {
+double val_beta_inc(double a, double b, double x) {
   if (x <= 0.0) return 0.0;
   if (x >= 1.0) return 1.0;
   double front = exp(lgamma(a + b) - lgamma(a) - lgamma(b) + a * log(x) + b * log1p(-x));
@@ -59,7 +59,7 @@ double val_t_max(int dof, int comparisons) {
   double lo = 0.0, hi = 1000.0;
   for (int i = 0; i < 200; ++i) {
     double mid = 0.5 * (lo + hi);
-    if (beta_inc(0.5 * nu, 0.5, nu / (nu + mid * mid)) > p) lo = mid; else hi = mid;
+    if (val_beta_inc(0.5 * nu, 0.5, nu / (nu + mid * mid)) > p) lo = mid; else hi = mid;
   }
   return 0.5 * (lo + hi);
 }

@@ -46,6 +46,8 @@ uint64_t val_seed(uint64_t fixed);
 /* The same for a Student t statistic with @p dof degrees of freedom: for
  * comparisons whose error bar is the spread of a few independent replicas. */
 double val_t_max(int dof, int comparisons);
+/* Regularised incomplete beta function I_x(a, b) (Student-t tails). */
+double val_beta_inc(double a, double b, double x);
 
 /* Photon count full·HETINV_VALIDATION_SCALE, rounded, at least 32. */
 double val_photons(double full);
