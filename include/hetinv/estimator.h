@@ -53,8 +53,9 @@ enum hetinv_estimator_param_id {
    *  photon count). Changing it changes the result's rounding, not its
    *  expectation. */
   HETINV_ESTIMATOR_BATCHES = 1,
-  /** Russian roulette starts when a photon's weight falls below this
-   *  (default 1e-4; [0, 1]; 0 disables roulette). */
+  /** Russian roulette starts when a photon's weight, relative to its
+   *  emitter's power, falls below this (default 1e-4; [0, 1]; 0 disables
+   *  roulette). */
   HETINV_ESTIMATOR_ROULETTE_WEIGHT = 2,
   /** Probability that a photon survives a roulette (default 0.1; (0, 1]). */
   HETINV_ESTIMATOR_ROULETTE_SURVIVAL = 3,

@@ -160,7 +160,10 @@ HETINV_API void hetinv_emitter_destroy(hetinv_emitter_t **emitter);
  * Pixels may extend beyond the face; only light leaving the face counts.
  * Unscattered (ballistic) light is a Dirac in direction at such a sensor and
  * is reported in the separate ballistic channel of the render, never in the
- * values.
+ * values. From a diffuse source, whose unscattered light reaches the face
+ * in a spread of directions, it is not estimated at all (light tracing has
+ * no scattering vertex to connect from): such a sensor sees scattered light
+ * only.
  * @param medium gives the box and refractive indices; only read.
  * @param face the face the sensor looks at.
  * @param direction direction of the light leaving the face toward the

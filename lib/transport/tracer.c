@@ -88,15 +88,15 @@ static void score(const hv_plan_t *plan, const hv_sensor_target_t *t, hv_tally_t
 }
 
 /* Next-event connection from scattering vertex r (direction of arrival
- * d_in, weight w after the albedo, anisotropy g, pathlength tau so far) to
- * the orthographic sensor of target t. The light leaves along the sensor's
+ * d_in, weight w after the albedo, the vertex's phase function, pathlength
+ * tau so far) to the orthographic sensor of target t. The light leaves along the sensor's
  * interior direction ω_i, possibly after specular reflections at other
  * faces (or at the sensor's face itself): each chain starts along a sign
  * flip of ω_i and ends when it reaches the sensor face travelling along
  * ω_i; every chain is followed until its throughput is negligible. */
 static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
                            const hv_sensor_target_t *t, const hv_ray_t *vertex,
-                           const double d_in[3], double w, double g, double tau,
+                           const double d_in[3], double w, hv_phase_t phase, double tau,
                            hv_tally_t *tally) {
   const hetinv_sensor_t *s = t->sensor;
   const hv_grid_t *grid = tr->grid;
@@ -114,7 +114,7 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
     }
     if (redundant) continue;
     double cos_theta = d_in[0] * w0[0] + d_in[1] * w0[1] + d_in[2] * w0[2];
-    double start = w * hv_hg_eval(g, cos_theta);
+    double start = w * hv_phase_eval(phase, cos_theta);
     if (!(start > 0.0)) continue;
     if (chain) hv_path_log_reset(chain);
     hv_ray_t r = *vertex;
@@ -148,7 +148,7 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
        * this chain's splats; its total joins the path's splats. */
       hv_grad_apply_log(gt, grid, chain);
       hv_grad_add(gt, HETINV_PARAM_G, hv_vertex_voxel(grid, vertex),
-                  hv_hg_dlog_dg(g, cos_theta) * chain->cum);
+                  hv_phase_dlog_dg(phase, cos_theta) * chain->cum);
       gt->path.cum += chain->cum;
     }
   }
@@ -252,17 +252,17 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
         hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
       }
     }
-    double g = grid->g[r.k];
+    hv_phase_t phase = {HV_PHASE_HG, grid->g[r.k]};
     if (scatterings >= tr->min_scattering) {
       for (int32_t i = 0; i < plan->ortho_count; ++i) {
-        connect_sensor(tr, plan, &plan->ortho[i], &r, r.d, w, g, tau, tally);
+        connect_sensor(tr, plan, &plan->ortho[i], &r, r.d, w, phase, tau, tally);
       }
     }
     double d_new[3];
-    double cos_theta = hv_phase_sample((hv_phase_t){HV_PHASE_HG, g}, r.d, hv_unit_from_u32(blk.v[2]),
+    double cos_theta = hv_phase_sample(phase, r.d, hv_unit_from_u32(blk.v[2]),
                                        hv_unit_from_u32(blk.v[3]), d_new);
     if (plog) {
-      double score = hv_hg_dlog_dg(g, cos_theta);
+      double score = hv_phase_dlog_dg(phase, cos_theta);
       if (grid->uniform) {
         hv_path_log_add_at(plog, HV_LOG_PHASE, r.p, score); /* voxel found when applied */
       } else {
