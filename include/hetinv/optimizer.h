@@ -1,0 +1,371 @@
+/**
+ * @file optimizer.h
+ * @brief Appearance matching: stochastic gradient descent on the loss of
+ *        Eq. (9) over a parameter vector π (see param.h).
+ *
+ * An optimizer holds one problem — a measurement set with its measured
+ * values, weights and mask, and an initial medium — and a schedule of
+ * stages. Each stage has a parameter map (multi-resolution: a coarse map
+ * first, then finer ones; each stage starts from the previous stage's
+ * result), optionally entries kept fixed and values left out (the
+ * layer-wise procedure of the paper's Fig. 2(b), see
+ * hetinv_optimizer_add_layerwise_stages()). An iteration:
+ *  1. draws a minibatch of emitters (all rows of each; without replacement,
+ *     from a counter-based stream keyed by the context's seed and the
+ *     iteration, so it is reproducible);
+ *  2. renders the minibatch and estimates the loss gradient from
+ *     independent paths (hetinv_estimator_loss_gradient(), with the
+ *     estimator's EPOCH set to the iteration so paths are fresh each time);
+ *  3. takes a step of the chosen method and projects π onto its box.
+ *
+ * Methods: ADADELTA (Zeiler 2012, with the square roots; the default, as in
+ * the paper's Algorithm 1), plain SGD, AdaGrad and Adam. Every method works
+ * in scaled coordinates: entry k of π has a scale s_k, the width of its box
+ * (or 1 when the box is unbounded), so one setting suits σ in mm⁻¹ and g
+ * alike. The result is the average of the trailing iterates of the last
+ * stage (Algorithm 1, line 9, over a trailing window; see
+ * HETINV_OPTIMIZER_AVERAGE_WINDOW).
+ *
+ * Runs stop at the end of the schedule, at a time budget, or when the
+ * progress callback asks; a stage ends after its iteration count or on a
+ * loss plateau. With a checkpoint path set, the full state is written
+ * atomically (temporary file, then rename) every few iterations and at the
+ * end; hetinv_optimizer_resume() continues a run from such a file, and the
+ * continuation is bitwise identical to an uninterrupted run.
+ *
+ * An optimizer belongs to one thread at a time. The set, the maps and the
+ * sampling functions the set uses must outlive it.
+ */
+#ifndef HETINV_OPTIMIZER_H
+#define HETINV_OPTIMIZER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hetinv/context.h"
+#include "hetinv/estimator.h"
+#include "hetinv/export.h"
+#include "hetinv/measurement.h"
+#include "hetinv/medium.h"
+#include "hetinv/param.h"
+#include "hetinv/result.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Opaque optimizer handle. */
+typedef struct hetinv_optimizer hetinv_optimizer_t;
+
+/** A descent method: a value of enum hetinv_optimizer_method_id. */
+typedef int32_t hetinv_optimizer_method_t;
+
+/** Descent methods. Pinned values. */
+enum hetinv_optimizer_method_id {
+  /** ADADELTA: δ_k = sqrt(E[δ²]_k + ε_k) / sqrt(E[g²]_k) · g_k, with decay γ. */
+  HETINV_METHOD_ADADELTA = 0,
+  /** Plain SGD: δ_k = rate · s_k² · g_k (the loss's units matter). */
+  HETINV_METHOD_SGD = 1,
+  /** AdaGrad: δ_k = rate · s_k · g_k / sqrt(Σ g_k²). */
+  HETINV_METHOD_ADAGRAD = 2,
+  /** Adam: δ_k = rate · s_k · m̂_k / sqrt(v̂_k), with decays β1, β2. */
+  HETINV_METHOD_ADAM = 3,
+  HETINV_METHOD_COUNT_ = 4 /**< not a method: one past the last */
+};
+
+/** A tunable of the optimizer: a value of enum hetinv_optimizer_param_id. */
+typedef int32_t hetinv_optimizer_param_t;
+
+/** Optimizer tunables; see hetinv_optimizer_param_bounds(). Pinned values. */
+enum hetinv_optimizer_param_id {
+  /** The method, an enum hetinv_optimizer_method_id (default ADADELTA). */
+  HETINV_OPTIMIZER_METHOD = 0,
+  /** ADADELTA's decay rate γ (default 0.95; [0, 1)). */
+  HETINV_OPTIMIZER_DECAY = 1,
+  /** ADADELTA's ε, relative: ε_k = (EPSILON · s_k)², so the first steps
+   *  move an entry by about EPSILON of its box width (default 0.01; (0, 1]). */
+  HETINV_OPTIMIZER_EPSILON = 2,
+  /** Step size of SGD, AdaGrad and Adam (default 0.01; (0, 1e12]). */
+  HETINV_OPTIMIZER_LEARNING_RATE = 3,
+  /** Adam's β1 (default 0.9; [0, 1)). */
+  HETINV_OPTIMIZER_BETA1 = 4,
+  /** Adam's β2 (default 0.999; [0, 1)). */
+  HETINV_OPTIMIZER_BETA2 = 5,
+  /** Emitters per iteration (default 0 = every emitter of the set; integer ≥ 0). */
+  HETINV_OPTIMIZER_MINIBATCH = 6,
+  /** Iterations of a stage that does not give its own count (default 100; integer ≥ 1). */
+  HETINV_OPTIMIZER_ITERATIONS = 7,
+  /** Wall-clock budget of the whole run in seconds (default 0 = none; ≥ 0).
+   *  Time-limited runs are not reproducible, by nature. */
+  HETINV_OPTIMIZER_TIME_BUDGET = 8,
+  /** A stage ends early when the mean loss of the last PLATEAU_WINDOW
+   *  iterations is not below (1 − PLATEAU_TOLERANCE) × the mean of the
+   *  window before (default 0 = never; integer ≥ 0). */
+  HETINV_OPTIMIZER_PLATEAU_WINDOW = 9,
+  /** Relative decrease a plateau window must beat (default 0.01; [0, 1]). */
+  HETINV_OPTIMIZER_PLATEAU_TOLERANCE = 10,
+  /** The result averages the last AVERAGE_WINDOW iterates of the stage
+   *  (default 20; integer in [1, 4096]; 1 returns the last iterate). */
+  HETINV_OPTIMIZER_AVERAGE_WINDOW = 11,
+  /** Iterations between checkpoints when a checkpoint path is set
+   *  (default 10; integer ≥ 1). A checkpoint is also written when the run ends. */
+  HETINV_OPTIMIZER_CHECKPOINT_INTERVAL = 12,
+  HETINV_OPTIMIZER_PARAM_COUNT_ = 13 /**< not a parameter: one past the last */
+};
+
+/** Why a run ended: a value of enum hetinv_stop_reason_id. */
+typedef int32_t hetinv_stop_reason_t;
+
+/** Why a run ended. Pinned values. */
+enum hetinv_stop_reason_id {
+  HETINV_STOP_NONE = 0,        /**< still running, or never run */
+  HETINV_STOP_COMPLETED = 1,   /**< every stage ran to its end (count or plateau) */
+  HETINV_STOP_TIME_BUDGET = 2, /**< the time budget ran out */
+  HETINV_STOP_CALLBACK = 3     /**< the progress callback asked to stop */
+};
+
+/**
+ * @brief One stage of the schedule.
+ *
+ * The struct begins with its size: set @c size = sizeof(hetinv_stage_t).
+ */
+typedef struct hetinv_stage {
+  size_t size;                    /**< sizeof(hetinv_stage_t), set by the caller */
+  const hetinv_param_map_t *map;  /**< π of this stage; borrowed, must outlive the optimizer */
+  int32_t iterations;             /**< iterations; 0 = HETINV_OPTIMIZER_ITERATIONS */
+  const uint8_t *frozen;          /**< hetinv_param_map_size(map) bytes, non-zero = entry kept fixed; or NULL. Copied. */
+  const uint8_t *value_mask;      /**< value_count bytes, 0 = value left out (ANDed with the set's mask); or NULL. Copied. */
+} hetinv_stage_t;
+
+/**
+ * @brief What the progress callback is told after every iteration.
+ *
+ * Begins with its size, so newer members can be added at the end.
+ */
+typedef struct hetinv_progress {
+  size_t size;              /**< sizeof(hetinv_progress_t) of the library */
+  int32_t stage;            /**< current stage (0-based) */
+  int32_t stage_count;      /**< stages in the schedule */
+  int64_t iteration;        /**< iterations done in all stages */
+  int64_t stage_iteration;  /**< iterations done in this stage */
+  int64_t stage_iterations; /**< the stage's iteration count */
+  int64_t total_iterations; /**< iterations of the whole schedule (stages ending on a plateau count in full) */
+  double loss;              /**< this iteration's loss, scaled to the whole set (minibatch loss × emitters / minibatch) */
+  double step;              /**< root mean square of the step over the stage's entries, relative to their scales */
+  double elapsed;           /**< seconds of optimisation (across resumes) */
+} hetinv_progress_t;
+
+/**
+ * @brief Progress callback: called after every iteration.
+ * @param progress the state after the iteration; valid during the call.
+ * @param user the pointer given to hetinv_optimizer_set_progress().
+ * @return 0 to go on; non-zero to stop the run (HETINV_STOP_CALLBACK).
+ */
+typedef int (*hetinv_progress_fn)(const hetinv_progress_t *progress, void *user);
+
+/**
+ * @brief Create an optimizer for a measurement set.
+ * @param ctx the context (seed, allocator, errors).
+ * @param set the measurement set with its measured values; borrowed: it must
+ *        outlive the optimizer and not change while the optimizer exists.
+ * @param initial a medium with the set's box and indices; copied. Its values
+ *        start every free parameter and keep every other one.
+ * @param[out] out receives the optimizer; NULL on failure.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (empty set);
+ *         HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
+                                                   const hetinv_measurements_t *set,
+                                                   const hetinv_medium_t *initial,
+                                                   hetinv_optimizer_t **out);
+
+/** @brief Destroy an optimizer and set @p *optimizer to NULL; NULL is a no-op. */
+HETINV_API void hetinv_optimizer_destroy(hetinv_optimizer_t **optimizer);
+
+/**
+ * @brief Valid range of a tunable (integers are passed as doubles).
+ * @param param the tunable.
+ * @param[out] lo, hi the inclusive bounds; may be NULL.
+ * @return HETINV_SUCCESS; HETINV_ERROR_OUT_OF_RANGE for an unknown tunable.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_param_bounds(hetinv_optimizer_param_t param,
+                                                         double *lo, double *hi);
+
+/**
+ * @brief Set a tunable. Not allowed once a run has started (the state would
+ *        no longer continue the same run).
+ * @param optimizer the optimizer.
+ * @param param the tunable.
+ * @param value within hetinv_optimizer_param_bounds(); integers must be integral.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
+ *         (unknown tunable); HETINV_ERROR_INVALID_ARGUMENT (value);
+ *         HETINV_ERROR_INVALID_STATE (run started).
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_set_param(hetinv_optimizer_t *optimizer,
+                                                      hetinv_optimizer_param_t param, double value);
+
+/**
+ * @brief Read a tunable.
+ * @param optimizer the optimizer.
+ * @param param the tunable.
+ * @param[out] value receives it.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_get_param(const hetinv_optimizer_t *optimizer,
+                                                      hetinv_optimizer_param_t param,
+                                                      double *value);
+
+/**
+ * @brief Box constraint of one physical parameter, applied to every π entry
+ *        of that parameter by projection after each step.
+ *
+ * Defaults: σa, σs ∈ [0, +∞) and g ∈ [−0.99, 0.99]. The paper uses
+ * σa, σs ∈ [1, 10] mm⁻¹ and g ∈ [0, 0.6]. Finite bounds also set the
+ * entries' scales s_k = hi − lo. Not allowed once a run has started.
+ * @param optimizer the optimizer.
+ * @param param HETINV_PARAM_SIGMA_A, _SIGMA_S or _G.
+ * @param lo, hi the bounds: lo < hi, within the parameter's domain
+ *        (σ ≥ 0; −1 < g < 1); hi may be +∞ for σ.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
+ *         (param); HETINV_ERROR_INVALID_ARGUMENT (bounds);
+ *         HETINV_ERROR_INVALID_STATE (run started).
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_set_bounds(hetinv_optimizer_t *optimizer,
+                                                       hetinv_param_t param, double lo, double hi);
+
+/**
+ * @brief Append a stage to the schedule. Not allowed once a run has started.
+ * @param optimizer the optimizer.
+ * @param stage the stage; its map must fit the initial medium's grid.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (size, map of another grid,
+ *         negative iterations); HETINV_ERROR_INVALID_STATE;
+ *         HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimizer,
+                                                      const hetinv_stage_t *stage);
+
+/**
+ * @brief Append the layer-wise stages of the paper's Fig. 2(b), for
+ *        pathlength-resolved frontlit measurements.
+ *
+ * Layer n holds the voxels whose centre lies between n·h and (n+1)·h from
+ * the nearest box face that carries a frontlit row (a row whose sensor is on
+ * the face its emitter enters). Stage n frees layer n only (earlier layers
+ * stay as estimated, deeper ones as initialised) and keeps the values of
+ * frontlit rows whose pathlength window ends before 2·(n+1)·h + the
+ * distance from the emitter's entry point to the sensor pixel, i.e. light
+ * that cannot have gone deeper than layer n. Only identity maps qualify.
+ * @param optimizer the optimizer.
+ * @param map an identity map of the medium's grid (borrowed).
+ * @param layer_thickness h, > 0, in the box's units.
+ * @param layers number of layers (stages) to add, ≥ 1.
+ * @param iterations iterations per stage; 0 = HETINV_OPTIMIZER_ITERATIONS.
+ * @return as hetinv_optimizer_add_stage(), plus HETINV_ERROR_INVALID_ARGUMENT
+ *         when the set has no pathlength-resolved frontlit row or the map is
+ *         not an identity map.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_add_layerwise_stages(hetinv_optimizer_t *optimizer,
+                                                                 const hetinv_param_map_t *map,
+                                                                 double layer_thickness,
+                                                                 int32_t layers,
+                                                                 int32_t iterations);
+
+/**
+ * @brief Set the progress callback (NULL to remove it).
+ * @param optimizer the optimizer.
+ * @param fn the callback, or NULL.
+ * @param user passed to @p fn.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_set_progress(hetinv_optimizer_t *optimizer,
+                                                         hetinv_progress_fn fn, void *user);
+
+/**
+ * @brief Write checkpoints to @p path during runs (NULL to stop).
+ * @param optimizer the optimizer.
+ * @param path the checkpoint file (copied), replaced atomically each time;
+ *        or NULL.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_set_checkpoint(hetinv_optimizer_t *optimizer,
+                                                           const char *path);
+
+/**
+ * @brief Write the optimizer's state to a file now (atomically).
+ * @param optimizer the optimizer.
+ * @param path the file.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO;
+ *         HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optimizer,
+                                                 const char *path);
+
+/**
+ * @brief Restore the state of a checkpoint into an optimizer configured as
+ *        the one that wrote it (same set, initial medium, tunables, bounds
+ *        and stages); the next hetinv_optimizer_run() continues that run.
+ * @param optimizer the optimizer; its run must not have started.
+ * @param path the checkpoint.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO;
+ *         HETINV_ERROR_CORRUPT_FILE (bad magic, truncated, checksum);
+ *         HETINV_ERROR_INVALID_ARGUMENT (written by a differently configured
+ *         optimizer; the message names what differs);
+ *         HETINV_ERROR_INVALID_STATE (run started); HETINV_ERROR_OUT_OF_MEMORY.
+ *         On failure the optimizer is unchanged.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer, const char *path);
+
+/**
+ * @brief Run the schedule until it ends, the time budget runs out or the
+ *        callback stops it. Calling it again after a stop continues.
+ * @param optimizer the optimizer, with at least one stage.
+ * @param estimator renders the loss and gradients; its tunables are used,
+ *        except EPOCH, which the optimizer sets per iteration (and restores).
+ * @param[out] reason why the run ended; may be NULL.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_STATE (no stage);
+ *         errors of the estimator and of checkpoint writes.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
+                                                hetinv_estimator_t *estimator,
+                                                hetinv_stop_reason_t *reason);
+
+/**
+ * @brief The current estimate: the average of the trailing iterates of the
+ *        current stage, mapped onto a new committed medium.
+ * @param optimizer the optimizer.
+ * @param[out] out receives the medium (the caller destroys it).
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_result(const hetinv_optimizer_t *optimizer,
+                                                   hetinv_medium_t **out);
+
+/**
+ * @brief The current stage's π: the last iterate or the trailing average.
+ * @param optimizer the optimizer.
+ * @param averaged non-zero for the trailing average, 0 for the last iterate.
+ * @param[out] pi receives the stage's π.
+ * @param count length of @p pi; must equal the stage map's size.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_STATE (no stage); HETINV_ERROR_INVALID_ARGUMENT (count).
+ */
+HETINV_API hetinv_result_t hetinv_optimizer_get_pi(const hetinv_optimizer_t *optimizer,
+                                                   int averaged, double *pi, size_t count);
+
+/**
+ * @brief Loss of every iteration run so far (the progress callback's values).
+ * @param optimizer the optimizer.
+ * @param[out] count receives the number of iterations; may be NULL.
+ * @return the losses, owned by the optimizer and valid until its next call;
+ *         NULL when nothing has run.
+ */
+HETINV_API const double *hetinv_optimizer_losses(const hetinv_optimizer_t *optimizer,
+                                                 size_t *count);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* HETINV_OPTIMIZER_H */

@@ -1,0 +1,361 @@
+/* The optimizer's configuration (tunables, bounds, stages) and its
+ * per-stage arrays; the iteration loop is in run.c. */
+#include <math.h>
+#include <string.h>
+
+#include "core/alloc.h"
+#include "core/error.h"
+#include "optimize/optimizer_internal.h"
+#include "optimize/param_map_internal.h"
+
+typedef struct param_info {
+  double def, lo, hi;
+  bool integer;
+  const char *name;
+} param_info_t;
+
+static const param_info_t PARAMS[HETINV_OPTIMIZER_PARAM_COUNT_] = {
+    [HETINV_OPTIMIZER_METHOD] = {HETINV_METHOD_ADADELTA, 0, HETINV_METHOD_COUNT_ - 1, true, "METHOD"},
+    [HETINV_OPTIMIZER_DECAY] = {0.95, 0, 0.999999, false, "DECAY"},
+    [HETINV_OPTIMIZER_EPSILON] = {0.01, 1e-12, 1, false, "EPSILON"},
+    [HETINV_OPTIMIZER_LEARNING_RATE] = {0.01, 1e-300, 1e12, false, "LEARNING_RATE"},
+    [HETINV_OPTIMIZER_BETA1] = {0.9, 0, 0.999999, false, "BETA1"},
+    [HETINV_OPTIMIZER_BETA2] = {0.999, 0, 0.999999, false, "BETA2"},
+    [HETINV_OPTIMIZER_MINIBATCH] = {0, 0, 2147483647.0, true, "MINIBATCH"},
+    [HETINV_OPTIMIZER_ITERATIONS] = {100, 1, 1e15, true, "ITERATIONS"},
+    [HETINV_OPTIMIZER_TIME_BUDGET] = {0, 0, 1e12, false, "TIME_BUDGET"},
+    [HETINV_OPTIMIZER_PLATEAU_WINDOW] = {0, 0, 1e9, true, "PLATEAU_WINDOW"},
+    [HETINV_OPTIMIZER_PLATEAU_TOLERANCE] = {0.01, 0, 1, false, "PLATEAU_TOLERANCE"},
+    [HETINV_OPTIMIZER_AVERAGE_WINDOW] = {20, 1, 4096, true, "AVERAGE_WINDOW"},
+    [HETINV_OPTIMIZER_CHECKPOINT_INTERVAL] = {10, 1, 1e15, true, "CHECKPOINT_INTERVAL"},
+};
+
+HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
+                                                   const hetinv_measurements_t *set,
+                                                   const hetinv_medium_t *initial,
+                                                   hetinv_optimizer_t **out) {
+  HV_CHECK_NULL(ctx, out);
+  *out = NULL;
+  HV_CHECK_NULL(ctx, ctx);
+  HV_CHECK_NULL(ctx, set);
+  HV_CHECK_NULL(ctx, initial);
+  if (hetinv_measurements_row_count(set) == 0) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "the measurement set has no rows");
+  }
+  hetinv_optimizer_t *opt = hv_calloc(ctx, 1, sizeof *opt);
+  if (opt == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the optimizer");
+  opt->ctx = ctx;
+  opt->set = set;
+  for (int p = 0; p < HETINV_OPTIMIZER_PARAM_COUNT_; ++p) opt->param[p] = PARAMS[p].def;
+  opt->lo[HETINV_PARAM_SIGMA_A] = opt->lo[HETINV_PARAM_SIGMA_S] = 0.0;
+  opt->hi[HETINV_PARAM_SIGMA_A] = opt->hi[HETINV_PARAM_SIGMA_S] = INFINITY;
+  opt->lo[HETINV_PARAM_G] = -0.99;
+  opt->hi[HETINV_PARAM_G] = 0.99;
+  hetinv_result_t r = hetinv_medium_clone(initial, &opt->initial);
+  if (r == HETINV_SUCCESS) r = hetinv_medium_commit(opt->initial);
+  if (r == HETINV_SUCCESS) r = hv_emitter_groups_build(ctx, set, &opt->groups, __func__);
+  if (r != HETINV_SUCCESS) {
+    hetinv_optimizer_destroy(&opt);
+    return r;
+  }
+  *out = opt;
+  return HETINV_SUCCESS;
+}
+
+void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt) {
+  const hetinv_context_t *ctx = opt->ctx;
+  double **arrays[] = {&opt->pi, &opt->acc1, &opt->acc2, &opt->ring,
+                       &opt->scale, &opt->lo_k, &opt->hi_k, &opt->grad};
+  for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i) {
+    hv_free(ctx, *arrays[i]);
+    *arrays[i] = NULL;
+  }
+  opt->k = 0;
+  opt->ring_count = opt->ring_head = 0;
+}
+
+HETINV_API void hetinv_optimizer_destroy(hetinv_optimizer_t **optimizer) {
+  if (optimizer == NULL || *optimizer == NULL) return;
+  hetinv_optimizer_t *opt = *optimizer;
+  const hetinv_context_t *ctx = opt->ctx;
+  hv_optimizer_free_stage_arrays(opt);
+  for (int32_t s = 0; s < opt->stage_count; ++s) {
+    hv_free(ctx, opt->stages[s].frozen);
+    hv_free(ctx, opt->stages[s].value_mask);
+  }
+  hv_free(ctx, opt->stages);
+  hv_free(ctx, opt->checkpoint_path);
+  hv_free(ctx, opt->losses);
+  hv_emitter_groups_release(ctx, &opt->groups);
+  hetinv_medium_destroy(&opt->initial);
+  hetinv_medium_destroy(&opt->base);
+  hv_free(ctx, opt);
+  *optimizer = NULL;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_param_bounds(hetinv_optimizer_param_t param,
+                                                         double *lo, double *hi) {
+  if (param < 0 || param >= HETINV_OPTIMIZER_PARAM_COUNT_) {
+    return HV_FAIL(NULL, HETINV_ERROR_OUT_OF_RANGE, "unknown optimizer parameter %d", (int)param);
+  }
+  if (lo) *lo = PARAMS[param].lo;
+  if (hi) *hi = PARAMS[param].hi;
+  return HETINV_SUCCESS;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_set_param(hetinv_optimizer_t *optimizer,
+                                                      hetinv_optimizer_param_t param, double value) {
+  HV_CHECK_NULL(NULL, optimizer);
+  const hetinv_context_t *ctx = optimizer->ctx;
+  if (param < 0 || param >= HETINV_OPTIMIZER_PARAM_COUNT_) {
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_RANGE, "unknown optimizer parameter %d", (int)param);
+  }
+  const param_info_t *info = &PARAMS[param];
+  if (!(value >= info->lo && value <= info->hi) || (info->integer && value != floor(value))) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "%s is %g; it must be %s in [%g, %g]",
+                   info->name, value, info->integer ? "an integer" : "a number", info->lo, info->hi);
+  }
+  if (optimizer->started) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE,
+                   "cannot change %s: the run has started (a resumed run must keep its settings)",
+                   info->name);
+  }
+  optimizer->param[param] = value;
+  return HETINV_SUCCESS;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_get_param(const hetinv_optimizer_t *optimizer,
+                                                      hetinv_optimizer_param_t param,
+                                                      double *value) {
+  HV_CHECK_NULL(NULL, optimizer);
+  HV_CHECK_NULL(optimizer->ctx, value);
+  if (param < 0 || param >= HETINV_OPTIMIZER_PARAM_COUNT_) {
+    return HV_FAIL(optimizer->ctx, HETINV_ERROR_OUT_OF_RANGE, "unknown optimizer parameter %d",
+                   (int)param);
+  }
+  *value = optimizer->param[param];
+  return HETINV_SUCCESS;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_set_bounds(hetinv_optimizer_t *optimizer,
+                                                       hetinv_param_t param, double lo, double hi) {
+  HV_CHECK_NULL(NULL, optimizer);
+  const hetinv_context_t *ctx = optimizer->ctx;
+  if (param < 0 || param >= HETINV_PARAM_COUNT) {
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_RANGE, "unknown parameter %d", (int)param);
+  }
+  const char *name = hetinv_param_name(param);
+  bool sigma = param != HETINV_PARAM_G;
+  bool ok = !isnan(lo) && !isnan(hi) && lo < hi &&
+            (sigma ? lo >= 0.0 && isfinite(lo) : lo > -1.0 && hi < 1.0);
+  if (!ok) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "bounds [%g, %g] of %s: they need lo < hi %s", lo, hi, name,
+                   sigma ? "and 0 <= lo < +inf" : "inside (-1, 1)");
+  }
+  if (optimizer->started) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "cannot change the bounds of %s: the run has started", name);
+  }
+  optimizer->lo[param] = lo;
+  optimizer->hi[param] = hi;
+  return HETINV_SUCCESS;
+}
+
+/* A copy of n bytes, or NULL for NULL; *failed on allocation failure. */
+static uint8_t *copy_bytes(const hetinv_context_t *ctx, const uint8_t *src, size_t n, bool *failed) {
+  if (src == NULL || n == 0) return NULL;
+  uint8_t *dst = hv_alloc(ctx, n);
+  if (dst == NULL) {
+    *failed = true;
+    return NULL;
+  }
+  memcpy(dst, src, n);
+  return dst;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimizer,
+                                                      const hetinv_stage_t *stage) {
+  HV_CHECK_NULL(NULL, optimizer);
+  const hetinv_context_t *ctx = optimizer->ctx;
+  HV_CHECK_NULL(ctx, stage);
+  if (stage->size < sizeof(hetinv_stage_t)) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage->size is %zu; it must be sizeof(hetinv_stage_t) = %zu",
+                   stage->size, sizeof(hetinv_stage_t));
+  }
+  if (stage->map == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'stage->map' is NULL");
+  if (!hv_param_map_fits(stage->map, optimizer->initial)) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "stage %d: its map was made for another grid than the initial medium's",
+                   (int)optimizer->stage_count);
+  }
+  if (stage->iterations < 0) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: iterations is %d; it must be >= 0",
+                   (int)optimizer->stage_count, (int)stage->iterations);
+  }
+  if (optimizer->started) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "cannot add a stage: the run has started");
+  }
+  if (optimizer->stage_count == optimizer->stage_capacity) {
+    int32_t cap = optimizer->stage_capacity ? 2 * optimizer->stage_capacity : 4;
+    hv_stage_t *grown = hv_calloc(ctx, (size_t)cap, sizeof *grown);
+    if (grown == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot grow the schedule");
+    if (optimizer->stage_count) memcpy(grown, optimizer->stages, (size_t)optimizer->stage_count * sizeof *grown);
+    hv_free(ctx, optimizer->stages);
+    optimizer->stages = grown;
+    optimizer->stage_capacity = cap;
+  }
+  hv_stage_t s = {.map = stage->map, .k = hetinv_param_map_size(stage->map), .requested = stage->iterations};
+  bool failed = false;
+  s.frozen = copy_bytes(ctx, stage->frozen, s.k, &failed);
+  s.value_mask = copy_bytes(ctx, stage->value_mask, hetinv_measurements_value_count(optimizer->set), &failed);
+  if (failed) {
+    hv_free(ctx, s.frozen);
+    hv_free(ctx, s.value_mask);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot copy the stage's masks");
+  }
+  optimizer->stages[optimizer->stage_count++] = s;
+  return HETINV_SUCCESS;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_set_progress(hetinv_optimizer_t *optimizer,
+                                                         hetinv_progress_fn fn, void *user) {
+  HV_CHECK_NULL(NULL, optimizer);
+  optimizer->progress = fn;
+  optimizer->user = user;
+  return HETINV_SUCCESS;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_set_checkpoint(hetinv_optimizer_t *optimizer,
+                                                           const char *path) {
+  HV_CHECK_NULL(NULL, optimizer);
+  char *copy = NULL;
+  if (path != NULL) {
+    copy = hv_strdup(optimizer->ctx, path);
+    if (copy == NULL) return HV_FAIL(optimizer->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot copy the path");
+  }
+  hv_free(optimizer->ctx, optimizer->checkpoint_path);
+  optimizer->checkpoint_path = copy;
+  return HETINV_SUCCESS;
+}
+
+void hv_optimizer_resolve_iterations(hetinv_optimizer_t *opt) {
+  for (int32_t s = 0; s < opt->stage_count; ++s) {
+    hv_stage_t *st = &opt->stages[s];
+    st->iterations = st->requested > 0 ? st->requested : (int64_t)opt->param[HETINV_OPTIMIZER_ITERATIONS];
+  }
+}
+
+hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k, const char *func) {
+  const hetinv_context_t *ctx = opt->ctx;
+  hv_optimizer_free_stage_arrays(opt);
+  opt->window = (int32_t)opt->param[HETINV_OPTIMIZER_AVERAGE_WINDOW];
+  opt->pi = hv_calloc(ctx, k, sizeof(double));
+  opt->acc1 = hv_calloc(ctx, k, sizeof(double));
+  opt->acc2 = hv_calloc(ctx, k, sizeof(double));
+  opt->scale = hv_calloc(ctx, k, sizeof(double));
+  opt->lo_k = hv_calloc(ctx, k, sizeof(double));
+  opt->hi_k = hv_calloc(ctx, k, sizeof(double));
+  opt->grad = hv_calloc(ctx, k, sizeof(double));
+  size_t ring_len;
+  opt->ring = hv_mul_size(k, (size_t)opt->window, &ring_len) ? hv_calloc(ctx, ring_len, sizeof(double)) : NULL;
+  if (!opt->pi || !opt->acc1 || !opt->acc2 || !opt->scale || !opt->lo_k || !opt->hi_k ||
+      !opt->grad || !opt->ring) {
+    hv_optimizer_free_stage_arrays(opt);
+    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the state of %zu entries", k);
+  }
+  opt->k = k;
+  hv_optimizer_stage_bounds(opt);
+  return HETINV_SUCCESS;
+}
+
+/* Each entry's box and scale, from its parameter's bounds. */
+void hv_optimizer_stage_bounds(hetinv_optimizer_t *opt) {
+  const hetinv_param_map_t *map = opt->stages[opt->stage].map;
+  for (size_t i = 0; i < opt->k; ++i) {
+    hetinv_param_t p = HETINV_PARAM_SIGMA_A;
+    hetinv_param_map_entry(map, i, &p, NULL);
+    opt->lo_k[i] = opt->lo[p];
+    opt->hi_k[i] = opt->hi[p];
+    double width = opt->hi[p] - opt->lo[p];
+    opt->scale[i] = isfinite(width) ? width : 1.0;
+  }
+}
+
+/* Starts stage opt->stage: π from the base medium, projected on the box. */
+hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt, const char *func) {
+  const hv_stage_t *st = &opt->stages[opt->stage];
+  hetinv_result_t r = hv_optimizer_alloc_stage_arrays(opt, st->k, func);
+  if (r != HETINV_SUCCESS) return r;
+  r = hetinv_param_map_extract(st->map, opt->base, opt->pi, opt->k);
+  if (r != HETINV_SUCCESS) return r;
+  for (size_t i = 0; i < opt->k; ++i) opt->pi[i] = fmin(fmax(opt->pi[i], opt->lo_k[i]), opt->hi_k[i]);
+  return HETINV_SUCCESS;
+}
+
+/* Mean of the iterates in the ring, oldest first (a fixed order). */
+void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out) {
+  size_t k = opt->k;
+  if (opt->ring_count == 0) {
+    memcpy(out, opt->pi, k * sizeof(double));
+    return;
+  }
+  for (size_t i = 0; i < k; ++i) out[i] = 0.0;
+  int32_t oldest = (opt->ring_head - opt->ring_count + opt->window) % opt->window;
+  for (int32_t j = 0; j < opt->ring_count; ++j) {
+    const double *it = opt->ring + (size_t)((oldest + j) % opt->window) * k;
+    for (size_t i = 0; i < k; ++i) out[i] += it[i];
+  }
+  for (size_t i = 0; i < k; ++i) out[i] /= opt->ring_count;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_get_pi(const hetinv_optimizer_t *optimizer,
+                                                   int averaged, double *pi, size_t count) {
+  HV_CHECK_NULL(NULL, optimizer);
+  const hetinv_context_t *ctx = optimizer->ctx;
+  HV_CHECK_NULL(ctx, pi);
+  if (optimizer->k == 0) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "no stage has started: run the optimizer first");
+  }
+  if (count != optimizer->k) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "count is %zu; the current stage has %zu entries",
+                   count, optimizer->k);
+  }
+  if (averaged) {
+    hv_optimizer_average(optimizer, pi);
+  } else {
+    memcpy(pi, optimizer->pi, count * sizeof(double));
+  }
+  return HETINV_SUCCESS;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_result(const hetinv_optimizer_t *optimizer,
+                                                   hetinv_medium_t **out) {
+  HV_CHECK_NULL(NULL, optimizer);
+  const hetinv_context_t *ctx = optimizer->ctx;
+  HV_CHECK_NULL(ctx, out);
+  *out = NULL;
+  hetinv_medium_t *m = NULL;
+  hetinv_result_t r = hetinv_medium_clone(optimizer->base ? optimizer->base : optimizer->initial, &m);
+  if (r == HETINV_SUCCESS && optimizer->k > 0) {
+    double *avg = hv_calloc(ctx, optimizer->k, sizeof(double));
+    if (avg == NULL) {
+      r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu entries", optimizer->k);
+    } else {
+      hv_optimizer_average(optimizer, avg);
+      r = hetinv_param_map_apply(optimizer->stages[optimizer->stage].map, avg, optimizer->k, m);
+      hv_free(ctx, avg);
+    }
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_medium_commit(m);
+  if (r != HETINV_SUCCESS) {
+    hetinv_medium_destroy(&m);
+    return r;
+  }
+  *out = m;
+  return HETINV_SUCCESS;
+}
+
+HETINV_API const double *hetinv_optimizer_losses(const hetinv_optimizer_t *optimizer, size_t *count) {
+  if (count) *count = optimizer ? optimizer->loss_count : 0;
+  return optimizer && optimizer->loss_count ? optimizer->losses : NULL;
+}

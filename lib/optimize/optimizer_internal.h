@@ -1,0 +1,96 @@
+/* The optimizer's configuration and run state, shared by its files:
+ * optimizer.c (configuration), minibatch.c (emitter groups and minibatch
+ * sets), methods.c (descent steps), run.c (the iteration loop),
+ * checkpoint.c (save/resume) and layerwise.c (Fig. 2(b) stages). */
+#ifndef HV_OPTIMIZER_INTERNAL_H
+#define HV_OPTIMIZER_INTERNAL_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "hetinv/optimizer.h"
+
+typedef struct hv_stage {
+  const hetinv_param_map_t *map;
+  size_t k;           /* hetinv_param_map_size(map) */
+  int64_t iterations; /* resolved when the run starts */
+  int32_t requested;  /* the stage's own count, 0 = the ITERATIONS tunable */
+  uint8_t *frozen;     /* k bytes or NULL */
+  uint8_t *value_mask; /* value_count bytes or NULL */
+} hv_stage_t;
+
+/* Rows of the set grouped by emitter (in order of first use):
+ * the rows of group e are rows[start[e] .. start[e+1]). */
+typedef struct hv_emitter_groups {
+  int32_t count;
+  int32_t *start; /* count + 1 */
+  int32_t *rows;  /* row_count */
+} hv_emitter_groups_t;
+
+struct hetinv_optimizer {
+  hetinv_context_t *ctx;
+  const hetinv_measurements_t *set;
+  hetinv_medium_t *initial; /* committed copy of the initial medium */
+  double param[HETINV_OPTIMIZER_PARAM_COUNT_];
+  double lo[HETINV_PARAM_COUNT], hi[HETINV_PARAM_COUNT];
+  hv_stage_t *stages;
+  int32_t stage_count, stage_capacity;
+  hetinv_progress_fn progress;
+  void *user;
+  char *checkpoint_path;
+  hv_emitter_groups_t groups;
+
+  /* Run state: everything below is what a checkpoint holds. */
+  bool started;
+  int32_t stage;           /* current stage */
+  int64_t stage_iteration; /* iterations done in it */
+  int64_t iteration;       /* iterations done in all stages */
+  double elapsed;          /* seconds, across resumes */
+  hetinv_medium_t *base;   /* uncommitted: the stage's π is applied over it */
+  size_t k;                /* entries of the current stage (0 before it starts) */
+  double *pi, *acc1, *acc2; /* iterate and the method's accumulators */
+  double *ring;            /* the last `window` iterates, k each */
+  int32_t ring_count, ring_head, window;
+  double *losses;
+  size_t loss_count, loss_capacity;
+  /* The estimator's tunables of the run (EPOCH aside): saved, and checked
+   * against the estimator a resumed run is given. */
+  double est_param[HETINV_ESTIMATOR_PARAM_COUNT_];
+  bool have_est_param, verify_est_param;
+
+  /* Derived per stage (not saved: recomputed from the configuration). */
+  double *scale, *lo_k, *hi_k, *grad;
+};
+
+/* optimizer.c */
+hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt, const char *func);
+void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt);
+hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k,
+                                                const char *func);
+void hv_optimizer_stage_bounds(hetinv_optimizer_t *opt);
+void hv_optimizer_resolve_iterations(hetinv_optimizer_t *opt);
+void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out);
+
+/* minibatch.c */
+hetinv_result_t hv_emitter_groups_build(const hetinv_context_t *ctx,
+                                        const hetinv_measurements_t *set,
+                                        hv_emitter_groups_t *groups, const char *func);
+void hv_emitter_groups_release(const hetinv_context_t *ctx, hv_emitter_groups_t *groups);
+/* Picks `size` distinct groups for iteration `iteration` (sorted ascending). */
+void hv_minibatch_pick(uint64_t seed, int64_t iteration, int32_t groups, int32_t size,
+                       int32_t *picked, int32_t *scratch);
+/* A new set with the rows of the picked groups, their measured values,
+ * weights and mask (ANDed with value_mask when not NULL). */
+hetinv_result_t hv_minibatch_set(const hetinv_optimizer_t *opt, const int32_t *picked,
+                                 int32_t count, const uint8_t *value_mask,
+                                 hetinv_measurements_t **out, const char *func);
+
+/* methods.c: one step of the optimizer's method on the stage's entries;
+ * returns the RMS of the step relative to the scales. */
+double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen);
+
+/* checkpoint.c */
+hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path,
+                                    const char *func);
+
+#endif

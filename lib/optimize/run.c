@@ -1,0 +1,210 @@
+/* The iteration loop: minibatch, loss gradient, step, averaging window,
+ * stage changes, stopping rules, progress and checkpoints. */
+#include <math.h>
+#include <string.h>
+#include <time.h>
+
+#include "core/alloc.h"
+#include "core/error.h"
+#include "optimize/optimizer_internal.h"
+
+static double now_seconds(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static hetinv_result_t push_loss(hetinv_optimizer_t *opt, double loss, const char *func) {
+  if (opt->loss_count == opt->loss_capacity) {
+    size_t cap = opt->loss_capacity ? 2 * opt->loss_capacity : 256;
+    double *grown = hv_calloc(opt->ctx, cap, sizeof(double));
+    if (grown == NULL) return hv_fail(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot grow the loss history");
+    if (opt->loss_count) memcpy(grown, opt->losses, opt->loss_count * sizeof(double));
+    hv_free(opt->ctx, opt->losses);
+    opt->losses = grown;
+    opt->loss_capacity = cap;
+  }
+  opt->losses[opt->loss_count++] = loss;
+  return HETINV_SUCCESS;
+}
+
+/* A stage has ended after its count, or when its last PLATEAU_WINDOW losses
+ * are not clearly below the window before. Decided from saved state only,
+ * so a resumed run decides the same. */
+static bool stage_done(const hetinv_optimizer_t *opt) {
+  const hv_stage_t *st = &opt->stages[opt->stage];
+  if (opt->stage_iteration >= st->iterations) return true;
+  int64_t w = (int64_t)opt->param[HETINV_OPTIMIZER_PLATEAU_WINDOW];
+  if (w == 0 || opt->stage_iteration < 2 * w) return false;
+  const double *l = opt->losses + opt->loss_count - 2 * w;
+  double before = 0.0, last = 0.0;
+  for (int64_t i = 0; i < w; ++i) {
+    before += l[i];
+    last += l[w + i];
+  }
+  return last >= (1.0 - opt->param[HETINV_OPTIMIZER_PLATEAU_TOLERANCE]) * before;
+}
+
+/* Ends the current stage: its averaged result becomes the base medium of
+ * the next, which starts. */
+static hetinv_result_t next_stage(hetinv_optimizer_t *opt, const char *func) {
+  double *avg = hv_calloc(opt->ctx, opt->k, sizeof(double));
+  if (avg == NULL) return hv_fail(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate %zu entries", opt->k);
+  hv_optimizer_average(opt, avg);
+  hetinv_result_t r = hetinv_param_map_apply(opt->stages[opt->stage].map, avg, opt->k, opt->base);
+  hv_free(opt->ctx, avg);
+  if (r != HETINV_SUCCESS) return r;
+  ++opt->stage;
+  opt->stage_iteration = 0;
+  return hv_optimizer_begin_stage(opt, func);
+}
+
+/* One iteration on the current stage. */
+static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est, int32_t *picked,
+                               int32_t *scratch, double *loss, double *step, const char *func) {
+  const hv_stage_t *st = &opt->stages[opt->stage];
+  int32_t groups = opt->groups.count;
+  int32_t size = (int32_t)opt->param[HETINV_OPTIMIZER_MINIBATCH];
+  if (size == 0 || size > groups) size = groups;
+  hv_minibatch_pick(hetinv_context_seed(opt->ctx), opt->iteration, groups, size, picked, scratch);
+
+  hetinv_measurements_t *sub = NULL;
+  hetinv_medium_t *medium = NULL;
+  hetinv_result_t r = hv_minibatch_set(opt, picked, size, st->value_mask, &sub, func);
+  if (r == HETINV_SUCCESS) r = hetinv_medium_clone(opt->base, &medium);
+  if (r == HETINV_SUCCESS) r = hetinv_param_map_apply(st->map, opt->pi, opt->k, medium);
+  if (r == HETINV_SUCCESS) r = hetinv_medium_commit(medium);
+  /* Epoch 0 is left to the caller's own renders (e.g. simulated data). */
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_EPOCH, (double)(opt->iteration + 1));
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_loss_gradient(est, medium, sub, st->map, loss, NULL, opt->grad, opt->k);
+  hetinv_measurements_destroy(&sub);
+  hetinv_medium_destroy(&medium);
+  if (r != HETINV_SUCCESS) return r;
+
+  /* Scale the minibatch to the whole set, so that SGD's rate and the
+   * reported loss do not depend on the minibatch size. */
+  double f = (double)groups / (double)size;
+  *loss *= f;
+  for (size_t i = 0; i < opt->k; ++i) opt->grad[i] *= f;
+  *step = hv_method_step(opt, st->frozen);
+
+  memcpy(opt->ring + (size_t)opt->ring_head * opt->k, opt->pi, opt->k * sizeof(double));
+  opt->ring_head = (opt->ring_head + 1) % opt->window;
+  if (opt->ring_count < opt->window) ++opt->ring_count;
+  return HETINV_SUCCESS;
+}
+
+static int64_t total_iterations(const hetinv_optimizer_t *opt) {
+  int64_t n = 0;
+  for (int32_t s = 0; s < opt->stage_count; ++s) n += opt->stages[s].iterations;
+  return n;
+}
+
+/* Starts a fresh run: stage 0 from the initial medium. */
+static hetinv_result_t start(hetinv_optimizer_t *opt, const char *func) {
+  hv_optimizer_resolve_iterations(opt);
+  hetinv_result_t r = hetinv_medium_clone(opt->initial, &opt->base);
+  if (r != HETINV_SUCCESS) return r;
+  opt->stage = 0;
+  opt->stage_iteration = opt->iteration = 0;
+  opt->elapsed = 0.0;
+  r = hv_optimizer_begin_stage(opt, func);
+  if (r != HETINV_SUCCESS) {
+    hetinv_medium_destroy(&opt->base);
+    return r;
+  }
+  opt->started = true;
+  return HETINV_SUCCESS;
+}
+
+/* Records the estimator's tunables; a resumed run must use the same. */
+static hetinv_result_t check_estimator(hetinv_optimizer_t *opt, const hetinv_estimator_t *est,
+                                       const char *func) {
+  for (int p = 0; p < HETINV_ESTIMATOR_PARAM_COUNT_; ++p) {
+    double v = 0.0;
+    hetinv_estimator_get_param(est, p, &v);
+    if (p == HETINV_ESTIMATOR_EPOCH) v = 0.0;
+    if (opt->verify_est_param && v != opt->est_param[p]) {
+      return hv_fail(opt->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+                     "estimator parameter %d is %.17g; the checkpointed run used %.17g", p, v,
+                     opt->est_param[p]);
+    }
+    opt->est_param[p] = v;
+  }
+  opt->have_est_param = true;
+  opt->verify_est_param = false;
+  return HETINV_SUCCESS;
+}
+
+HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
+                                                hetinv_estimator_t *estimator,
+                                                hetinv_stop_reason_t *reason) {
+  HV_CHECK_NULL(NULL, optimizer);
+  hetinv_optimizer_t *opt = optimizer;
+  const hetinv_context_t *ctx = opt->ctx;
+  if (reason) *reason = HETINV_STOP_NONE;
+  HV_CHECK_NULL(ctx, estimator);
+  if (opt->stage_count == 0) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "the schedule has no stage: call hetinv_optimizer_add_stage() first");
+  }
+  hetinv_result_t r = opt->started ? HETINV_SUCCESS : start(opt, __func__);
+  if (r != HETINV_SUCCESS) return r;
+
+  r = check_estimator(opt, estimator, __func__);
+  if (r != HETINV_SUCCESS) return r;
+  double epoch = 0.0;
+  hetinv_estimator_get_param(estimator, HETINV_ESTIMATOR_EPOCH, &epoch);
+  int32_t groups = opt->groups.count;
+  int32_t *picked = hv_calloc(ctx, (size_t)groups, sizeof(int32_t));
+  int32_t *scratch = hv_calloc(ctx, (size_t)groups, sizeof(int32_t));
+  if (picked == NULL || scratch == NULL) r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the minibatch");
+
+  double budget = opt->param[HETINV_OPTIMIZER_TIME_BUDGET];
+  int64_t interval = (int64_t)opt->param[HETINV_OPTIMIZER_CHECKPOINT_INTERVAL];
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  while (r == HETINV_SUCCESS && why == HETINV_STOP_NONE) {
+    if (stage_done(opt)) {
+      if (opt->stage + 1 == opt->stage_count) {
+        why = HETINV_STOP_COMPLETED;
+        break;
+      }
+      r = next_stage(opt, __func__);
+      continue;
+    }
+    if (budget > 0.0 && opt->elapsed >= budget) {
+      why = HETINV_STOP_TIME_BUDGET;
+      break;
+    }
+    double t0 = now_seconds(), loss = 0.0, step = 0.0;
+    r = iterate(opt, estimator, picked, scratch, &loss, &step, __func__);
+    if (r != HETINV_SUCCESS) break;
+    opt->elapsed += now_seconds() - t0;
+    ++opt->stage_iteration;
+    ++opt->iteration;
+    r = push_loss(opt, loss, __func__);
+    if (r == HETINV_SUCCESS && opt->checkpoint_path && opt->iteration % interval == 0) {
+      r = hv_checkpoint_write(opt, opt->checkpoint_path, __func__);
+    }
+    if (r == HETINV_SUCCESS && opt->progress) {
+      hetinv_progress_t p = {
+          .size = sizeof p,
+          .stage = opt->stage,
+          .stage_count = opt->stage_count,
+          .iteration = opt->iteration,
+          .stage_iteration = opt->stage_iteration,
+          .stage_iterations = opt->stages[opt->stage].iterations,
+          .total_iterations = total_iterations(opt),
+          .loss = loss,
+          .step = step,
+          .elapsed = opt->elapsed,
+      };
+      if (opt->progress(&p, opt->user) != 0) why = HETINV_STOP_CALLBACK;
+    }
+  }
+  if (r == HETINV_SUCCESS && opt->checkpoint_path) r = hv_checkpoint_write(opt, opt->checkpoint_path, __func__);
+  hetinv_estimator_set_param(estimator, HETINV_ESTIMATOR_EPOCH, epoch);
+  hv_free(ctx, picked);
+  hv_free(ctx, scratch);
+  if (reason) *reason = why;
+  return r;
+}
