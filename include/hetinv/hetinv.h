@@ -20,5 +20,6 @@
 #include "hetinv/measurement.h"
 #include "hetinv/param.h"
 #include "hetinv/estimator.h"
+#include "hetinv/acquire.h"
 
 #endif /* HETINV_HETINV_H */
