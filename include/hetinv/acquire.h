@@ -186,8 +186,9 @@ HETINV_API hetinv_result_t hetinv_volume_gaussian_mixture(hetinv_medium_t *mediu
  * @brief A smooth smoke plume (like Fig. 5 of the paper).
  *
  * The plume rises along +y. A density d(x) in [0, 1] is a swirling column
- * (a Gaussian profile around a random curved vertical axis, widening with
- * height, plus Gaussian puffs along it) multiplied by fractal value noise
+ * (a Gaussian profile around a random helical vertical axis, of radius 5–8 %
+ * of the box's smaller horizontal side at the bottom widening 2.5× to the
+ * top, plus five Gaussian puffs along it) multiplied by fractal value noise
  * (octaves of a random lattice with quintic, C² interpolation; lattice
  * spacing feature_size · L for the first octave, halved at each further
  * octave, amplitude halved too), normalised so its maximum over the voxels

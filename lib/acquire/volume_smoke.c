@@ -80,11 +80,11 @@ static plume_t draw_plume(uint64_t seed, const double side[3], double length) {
   p.swirl = (0.06 + 0.06 * hv_rng_uniform(&rng)) * width;
   p.turns = 0.75 + 0.75 * hv_rng_uniform(&rng);
   p.phase = HV_TWO_PI * hv_rng_uniform(&rng);
-  p.radius = (0.08 + 0.04 * hv_rng_uniform(&rng)) * width;
+  p.radius = (0.05 + 0.03 * hv_rng_uniform(&rng)) * width;
   for (int j = 0; j < HV_SMOKE_PUFFS; ++j) {
     double t = ((double)j + 0.25 + 0.5 * hv_rng_uniform(&rng)) / HV_SMOKE_PUFFS;
     axis_at(&p, t, &p.puff[j][0], &p.puff[j][2]);
-    double r = p.radius * (1.0 + 1.5 * t) * (1.2 + 0.6 * hv_rng_uniform(&rng));
+    double r = p.radius * (1.0 + 1.5 * t) * (1.0 + 0.4 * hv_rng_uniform(&rng));
     p.puff[j][0] += r * (hv_rng_uniform(&rng) - 0.5);
     p.puff[j][2] += r * (hv_rng_uniform(&rng) - 0.5);
     p.puff[j][1] = t * p.height;
