@@ -194,8 +194,9 @@ HETINV_API hetinv_result_t hetinv_volume_gaussian_mixture(hetinv_medium_t *mediu
  * octave, amplitude halved too), normalised so its maximum over the voxels
  * is 1. Then σs = lo + (hi − lo)·d, σa the same with a weaker, independent
  * noise modulation of d, and g = lo + (hi − lo)·n from an independent smooth
- * noise field n in [0, 1]. Every value lies in [lo[p], hi[p]]; σs reaches
- * hi exactly. The field is smooth on the scale of feature_size / 2^(octaves−1).
+ * noise field n in [0, 1]. Every value lies in [lo[p], hi[p]]; σs takes
+ * hi[1] exactly at the densest voxel. The noise is smooth on the scale of
+ * feature_size / 2^(octaves−1), the column on the scale of its radius.
  */
 typedef struct hetinv_smoke_spec {
   size_t size;         /**< sizeof(hetinv_smoke_spec_t); set by hetinv_smoke_spec_default() */
