@@ -21,5 +21,6 @@
 #include "hetinv/param.h"
 #include "hetinv/estimator.h"
 #include "hetinv/optimizer.h"
+#include "hetinv/acquire.h"
 
 #endif /* HETINV_HETINV_H */

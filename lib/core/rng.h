@@ -12,7 +12,14 @@
  *           emitter }
  *
  * hence the limits photon < 2^48 and stream < 2^16, and 2^32 Philox blocks
- * (2^33 doubles) per stream: far beyond any one photon's path. */
+ * (2^33 doubles) per stream: far beyond any one photon's path.
+ *
+ * Key domains. Photon streams put their emitter's index in the last counter
+ * word; emitters are numbered from 0 within a measurement set of at most
+ * INT32_MAX rows, so that word is < 2^31. Everything else that draws random
+ * numbers (simulated acquisition) uses hv_rng_init_domain with a domain
+ * constant >= 2^31 in that word: its streams never coincide with a photon
+ * stream, whatever the seeds, nor with another domain's. */
 #ifndef HV_RNG_H
 #define HV_RNG_H
 
@@ -55,6 +62,19 @@ static inline hv_rng_t hv_rng_init(uint64_t seed, uint32_t emitter, uint64_t pho
   r.out = r.ctr; /* never read before the first refill */
   r.used = 4;
   return r;
+}
+
+#define HV_RNG_EMITTER_LIMIT (UINT32_C(1) << 31) /* photon streams' emitter keys are < this */
+#define HV_RNG_DOMAIN_NOISE (UINT32_C(0x80000001))   /* acquire/noise.c: index = value */
+#define HV_RNG_DOMAIN_MIXTURE (UINT32_C(0x80000002)) /* acquire/volume_mixture.c: index = component */
+#define HV_RNG_DOMAIN_SMOKE (UINT32_C(0x80000003))   /* acquire/volume_smoke.c, smooth_noise.c */
+
+/* A stream of a non-photon domain: keyed by (seed, domain, index, stream),
+ * with the limits of hv_rng_init on index and stream. */
+static inline hv_rng_t hv_rng_init_domain(uint64_t seed, uint32_t domain, uint64_t index,
+                                          uint32_t stream) {
+  assert(domain >= HV_RNG_EMITTER_LIMIT);
+  return hv_rng_init(seed, domain, index, stream);
 }
 
 /* The raw generator: Philox4x32-10 of one counter under one key. */

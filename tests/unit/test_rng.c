@@ -133,6 +133,22 @@ static void neighbouring_photons_are_uncorrelated(void **state) {
   }
 }
 
+static void domain_streams_sit_above_every_emitter_key(void **state) {
+  (void)state;
+  /* A domain occupies the emitter word with a value no emitter index
+   * (< 2^31) can take, so it never reproduces a photon stream. */
+  const uint32_t domains[] = {HV_RNG_DOMAIN_NOISE, HV_RNG_DOMAIN_MIXTURE, HV_RNG_DOMAIN_SMOKE};
+  for (int d = 0; d < 3; ++d) {
+    assert_true(domains[d] >= HV_RNG_EMITTER_LIMIT);
+    for (int e = 0; e < d; ++e) assert_true(domains[d] != domains[e]);
+    hv_rng_t a = hv_rng_init_domain(9, domains[d], 5, 1), b = hv_rng_init(9, domains[d], 5, 1);
+    for (int i = 0; i < 8; ++i) assert_int_equal(hv_rng_u32(&a), hv_rng_u32(&b));
+    hv_rng_t photon = hv_rng_init(9, domains[d] & ~HV_RNG_EMITTER_LIMIT, 5, 1);
+    a = hv_rng_init_domain(9, domains[d], 5, 1);
+    assert_true(hv_rng_u64(&a) != hv_rng_u64(&photon));
+  }
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(philox_matches_random123_known_answers),
@@ -142,6 +158,7 @@ int main(void) {
       cmocka_unit_test(uniforms_stay_in_their_intervals),
       cmocka_unit_test(uniform_mean_and_variance_match),
       cmocka_unit_test(neighbouring_photons_are_uncorrelated),
+      cmocka_unit_test(domain_streams_sit_above_every_emitter_key),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
