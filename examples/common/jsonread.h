@@ -6,8 +6,8 @@
  * untouched (so callers preset defaults) and returns 0; a present field
  * returns 1.
  */
-#ifndef HETINV_RENDER_JSONREAD_H
-#define HETINV_RENDER_JSONREAD_H
+#ifndef HETINV_EXAMPLES_JSONREAD_H
+#define HETINV_EXAMPLES_JSONREAD_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -46,6 +46,11 @@ const cJSON *jr_get(const cJSON *object, const char *key);
 /* item must be an object whose keys are all in the NULL-terminated list
  * allowed, each once. */
 int jr_check_object(jr_t *jr, const cJSON *item, const char *path, const char *const *allowed);
+
+/* Reads the file at path and parses it; on failure records "cannot open",
+ * "file:line:col: JSON syntax error near ..." etc. The caller frees *text
+ * (free) and *root (cJSON_Delete), also after a failure. */
+int jr_load(jr_t *jr, const char *path, char **text, cJSON **root);
 
 /* A finite number. */
 int jr_number(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,

@@ -1,8 +1,10 @@
 #include "jsonread.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 int jr_fail(jr_t *jr, const char *path, const char *fmt, ...) {
@@ -237,4 +239,73 @@ int jr_object(jr_t *jr, const cJSON *object, const char *path, const char *key, 
   }
   *out = item;
   return 1;
+}
+
+static int read_file(jr_t *jr, const char *path, char **out) {
+  FILE *f = fopen(path, "rb");
+  if (f == NULL) return jr_fail(jr, "", "cannot open: %s", strerror(errno));
+  size_t cap = 1 << 16, len = 0;
+  char *text = malloc(cap);
+  for (;;) {
+    if (text == NULL) {
+      fclose(f);
+      return jr_fail(jr, "", "out of memory");
+    }
+    len += fread(text + len, 1, cap - len - 1, f);
+    if (ferror(f)) {
+      free(text);
+      fclose(f);
+      return jr_fail(jr, "", "cannot read: %s", strerror(errno));
+    }
+    if (feof(f)) break;
+    if (cap >= (size_t)1 << 30) {
+      free(text);
+      fclose(f);
+      return jr_fail(jr, "", "larger than 1 GiB; not a scene");
+    }
+    char *bigger = realloc(text, cap * 2);
+    if (bigger == NULL) free(text);
+    text = bigger;
+    cap *= 2;
+  }
+  fclose(f);
+  text[len] = '\0';
+  if (strlen(text) != len) {
+    free(text);
+    return jr_fail(jr, "", "contains a NUL byte; not a JSON text");
+  }
+  *out = text;
+  return 0;
+}
+
+/* "<file>:<line>:<column>: JSON syntax error near ..." for a parse failure at end. */
+static int syntax_error(jr_t *jr, const char *text, const char *end) {
+  int line = 1, column = 1;
+  if (end == NULL) end = text;
+  for (const char *p = text; p < end && *p != '\0'; ++p) {
+    if (*p == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+  }
+  char near[24];
+  size_t n = 0;
+  for (const char *p = end; *p != '\0' && *p != '\n' && n < sizeof near - 1; ++p) near[n++] = *p;
+  near[n] = '\0';
+  snprintf(jr->message, sizeof jr->message,
+           "%s:%d:%d: JSON syntax error%s%s%s (cJSON stops here; the mistake may be just before)",
+           jr->file, line, column, n ? " near '" : " at the end of the file", near, n ? "'" : "");
+  return -1;
+}
+
+int jr_load(jr_t *jr, const char *path, char **text, cJSON **root) {
+  *text = NULL;
+  *root = NULL;
+  if (read_file(jr, path, text) < 0) return -1;
+  const char *end = NULL;
+  *root = cJSON_ParseWithOpts(*text, &end, 1);
+  if (*root == NULL) return syntax_error(jr, *text, end);
+  return 0;
 }

@@ -1,0 +1,152 @@
+/* Simulated acquisition (render the truth, then the sensor noise model,
+ * one exposure per row as a camera would take one shot per source) and
+ * measurement files. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "recon.h"
+
+/* Photons of the simulated data come from their own stream, so the
+ * optimizer never reuses the paths that made its data. */
+#define RECON_TRUTH_STREAM 40000
+
+/* Loss weights from the measured values and their standard errors. */
+static void set_weights(const recon_scene_t *sc, const double *v, const double *se, double *w, size_t n) {
+  double peak = 0.0;
+  for (size_t i = 0; i < n; ++i) peak = fmax(peak, fabs(v[i]));
+  for (size_t i = 0; i < n; ++i) {
+    double s;
+    switch (sc->weighting) {
+      case RECON_WEIGHT_VARIANCE: s = se[i] > 0.0 ? se[i] : 1e-6 * peak; break;
+      case RECON_WEIGHT_RELATIVE: s = fmax(fabs(v[i]), 1e-3 * peak); break;
+      default: s = 1.0; break;
+    }
+    w[i] = s > 0.0 ? 1.0 / (s * s) : 0.0;
+  }
+}
+
+hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
+                               const hetinv_medium_t *truth, recon_imaging_t *im) {
+  size_t n = hetinv_measurements_value_count(im->set);
+  double *clean = calloc(n, sizeof *clean), *v = calloc(n, sizeof *v);
+  double *se = calloc(n, sizeof *se), *w = calloc(n, sizeof *w);
+  uint8_t *mask = calloc(n, 1);
+  hetinv_estimator_t *est = NULL;
+  hetinv_result_t r = clean && v && se && w && mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)sc->truth_photons);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, RECON_TRUTH_STREAM);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, clean, se, NULL, n);
+  int32_t rows = hetinv_measurements_row_count(im->set);
+  for (int32_t row = 0; r == HETINV_SUCCESS && row < rows; ++row) {
+    size_t off = 0;
+    int32_t pixels = 0, bins = 0;
+    hetinv_measurements_row_layout(im->set, row, &off, &pixels, &bins);
+    size_t len = (size_t)pixels * (size_t)bins;
+    double exposure = 0.0;
+    for (size_t i = 0; i < len; ++i) mask[off + i] = 1;
+    if (!sc->noise) {
+      memcpy(v + off, clean + off, len * sizeof *v);
+      continue;
+    }
+    bool lit = false;
+    for (size_t i = 0; i < len; ++i) lit = lit || clean[off + i] > 0.0;
+    if (!lit) { /* nothing reached this row: a dark frame of read noise only */
+      memset(v + off, 0, len * sizeof *v);
+      for (size_t i = 0; i < len; ++i) se[off + i] = 0.0;
+      continue;
+    }
+    hetinv_noise_model_t model = sc->noise_model;
+    model.first_index = off;
+    r = hetinv_noise_apply(ctx, &model, clean + off, v + off, se + off, len, &exposure);
+    /* (4): pathlength values lost in the read noise are left out; the
+     * steady-state rows stand in for them. */
+    if (r == HETINV_SUCCESS && sc->config == RECON_COMBINED && bins > 1) {
+      double floor_value = sc->snr_threshold * model.read_noise / exposure;
+      for (size_t i = 0; i < len; ++i) mask[off + i] = clean[off + i] * 1.0 > floor_value;
+    }
+  }
+  if (r == HETINV_SUCCESS) {
+    set_weights(sc, v, se, w, n);
+    r = hetinv_measurements_set_values(im->set, v, se, n);
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, w, n);
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
+  hetinv_estimator_destroy(&est);
+  free(clean);
+  free(v);
+  free(se);
+  free(w);
+  free(mask);
+  return r;
+}
+
+static const char *const CHANNELS[4] = {"value", "std_error", "weight", "mask"};
+
+hetinv_result_t recon_measurements_write(hetinv_context_t *ctx, const recon_imaging_t *im, const char *path) {
+  size_t n = hetinv_measurements_value_count(im->set);
+  hetinv_image_t *img = NULL;
+  hetinv_result_t r = hetinv_image_create(ctx, (int32_t)n, 1, 4, &img);
+  const double *src[3] = {hetinv_measurements_values(im->set), hetinv_measurements_std_errors(im->set),
+                          hetinv_measurements_weights(im->set)};
+  const uint8_t *mask = hetinv_measurements_mask(im->set);
+  for (int c = 0; r == HETINV_SUCCESS && c < 4; ++c) {
+    r = hetinv_image_set_channel_name(img, c, CHANNELS[c]);
+    float *dst = hetinv_image_channel_data(img, c);
+    for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) dst[i] = c < 3 ? (float)src[c][i] : (float)mask[i];
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_image_set_attribute_string(img, "hetinv:content", "measurement set values");
+  if (r == HETINV_SUCCESS) r = hetinv_image_set_attribute_int(img, "hetinv:rows", hetinv_measurements_row_count(im->set));
+  if (r == HETINV_SUCCESS) r = hetinv_image_set_attribute_int(img, "hetinv:values", (int32_t)n);
+  if (r == HETINV_SUCCESS) r = hetinv_image_write_exr(img, path);
+  hetinv_image_destroy(&img);
+  return r;
+}
+
+hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *im, const char *path,
+                                        char *msg, size_t msg_size) {
+  size_t n = hetinv_measurements_value_count(im->set);
+  hetinv_image_t *img = NULL;
+  hetinv_result_t r = hetinv_image_read_exr(ctx, path, &img);
+  if (r != HETINV_SUCCESS) {
+    snprintf(msg, msg_size, "%s", hetinv_context_last_error_message(ctx));
+    return r;
+  }
+  int32_t w = 0, h = 0, rows = 0, ch[4] = {-1, -1, -1, -1};
+  hetinv_image_get_size(img, &w, &h, NULL);
+  hetinv_image_get_attribute_int(img, "hetinv:rows", &rows);
+  if ((size_t)w * (size_t)h != n || rows != hetinv_measurements_row_count(im->set)) {
+    snprintf(msg, msg_size, "%s holds %d values in %d rows; the scene's imaging configuration has %zu in %d",
+             path, (int)(w * h), (int)rows, n, (int)hetinv_measurements_row_count(im->set));
+    hetinv_image_destroy(&img);
+    return HETINV_ERROR_INVALID_ARGUMENT;
+  }
+  for (int c = 0; c < 4; ++c) {
+    if (hetinv_image_find_channel(img, CHANNELS[c], &ch[c]) != HETINV_SUCCESS) {
+      snprintf(msg, msg_size, "%s has no channel \"%s\"", path, CHANNELS[c]);
+      hetinv_image_destroy(&img);
+      return HETINV_ERROR_INVALID_ARGUMENT;
+    }
+  }
+  double *v = calloc(n, sizeof *v), *se = calloc(n, sizeof *se), *wt = calloc(n, sizeof *wt);
+  uint8_t *mask = calloc(n, 1);
+  r = v && se && wt && mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) {
+    v[i] = hetinv_image_channel_data(img, ch[0])[i];
+    se[i] = hetinv_image_channel_data(img, ch[1])[i];
+    wt[i] = hetinv_image_channel_data(img, ch[2])[i];
+    mask[i] = hetinv_image_channel_data(img, ch[3])[i] != 0.0f;
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_values(im->set, v, se, n);
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, wt, n);
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
+  if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
+  free(v);
+  free(se);
+  free(wt);
+  free(mask);
+  hetinv_image_destroy(&img);
+  return r;
+}

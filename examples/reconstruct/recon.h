@@ -1,0 +1,145 @@
+/* Reconstruction support shared by hetinv-reconstruct and the paper's
+ * experiment programs: a scene description (scene.c: defaults = the
+ * built-in reduced Fig. 4 scene, and JSON), the imaging configurations of
+ * the paper's Fig. 4 (imaging.c), simulated acquisition and measurement
+ * files (acquire.c), the optimizer schedule with a progress line
+ * (solve.c), and errors and output files (report.c). Public API only. */
+#ifndef HETINV_RECON_H
+#define HETINV_RECON_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include <hetinv/hetinv.h>
+
+/* The imaging configurations of the paper's Fig. 4 (section 6). */
+typedef enum recon_config {
+  RECON_PATHLENGTH = 1,       /* (1) pathlength-resolved, sensor at the source pixel and its two neighbours */
+  RECON_STEADY = 2,           /* (2) steady-state orthographic cameras, several source orientations */
+  RECON_PATHLENGTH_ANGLES = 3, /* (3) like (1), source orientations instead of neighbours */
+  RECON_COMBINED = 4          /* (4) (1) with its low-SNR values replaced by (2)'s steady state */
+} recon_config_t;
+
+enum { RECON_TRUTH_MIXTURE, RECON_TRUTH_SMOKE, RECON_TRUTH_VOL };
+enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM };
+
+#define RECON_MAX_LEVELS 8
+#define RECON_MAX_ANGLES 8
+
+typedef struct recon_scene {
+  /* Medium: a cube of side `size` (mm) with grid[0] × grid[1] × grid[2]
+   * voxels; grid[1] = 1 is the paper's 2D cross-section (the section at
+   * the middle of y, parameters constant along y). */
+  double size;
+  int32_t grid[3];
+  double eta;
+  /* Ground truth. */
+  int truth_kind;
+  uint64_t truth_seed;
+  double truth_lo[3], truth_hi[3];
+  char truth_vol[3][1024];
+  /* Imaging. */
+  recon_config_t config;
+  int32_t pixels_per_voxel;     /* imaging pixels per voxel side */
+  int32_t angle_count;          /* source orientations (degrees from the normal) */
+  double angles[RECON_MAX_ANGLES];
+  uint32_t source_faces;        /* bit f: sources on face f */
+  uint32_t camera_faces;        /* bit f: a steady-state camera on face f */
+  int32_t source_stride;        /* every n-th boundary pixel carries a source */
+  double bin_width, max_pathlength; /* pathlength bins [0, max) of this width (mm) */
+  double snr_threshold;         /* (4): values under this many read-noise deviations are replaced */
+  /* Acquisition. */
+  bool noise;
+  hetinv_noise_model_t noise_model;
+  int weighting;
+  char measurements[1024];      /* load these (EXR) instead of simulating; "" = simulate */
+  int64_t truth_photons;        /* photons per emitter of the simulated measurements */
+  /* Estimator during optimisation. */
+  int64_t photons;
+  int32_t batches;
+  /* Optimizer. */
+  int method;
+  int64_t iterations;           /* of the finest stage */
+  double coarse_fraction;       /* iterations of each coarser stage, relative */
+  int32_t minibatch;
+  double epsilon, decay, learning_rate;
+  int32_t average_window;
+  double time_budget;
+  double bounds_lo[3], bounds_hi[3];
+  double init[3];               /* uniform initial values */
+  int32_t level_count;          /* multi-resolution: cells per axis of each stage */
+  int32_t levels[RECON_MAX_LEVELS];
+  int32_t layerwise_layers;     /* > 0: layer-wise stages first (Fig. 2b) */
+  /* Run. */
+  uint64_t seed;
+  int32_t threads;
+  char output[1024];
+  char name[128];
+} recon_scene_t;
+
+/* The built-in reduced Fig. 4 scene. */
+void recon_scene_default(recon_scene_t *scene);
+/* Reads a JSON scene over the defaults; on failure writes a message naming
+ * the field to msg and returns -1. */
+int recon_scene_read(const char *path, recon_scene_t *scene, char *msg, size_t msg_size);
+/* Checks the values; -1 with a message on a bad one. */
+int recon_scene_check(const recon_scene_t *scene, char *msg, size_t msg_size);
+
+/* The sampling functions and measurement set of a configuration. */
+typedef struct recon_imaging {
+  hetinv_measurements_t *set;
+  hetinv_emitter_t **emitters;
+  hetinv_sensor_t **sensors;
+  int32_t emitter_count, sensor_count, capacity_e, capacity_s;
+  hetinv_pathlength_t *steady, *bins;
+  int32_t rows_pathlength;      /* rows of configuration (1)/(3) come first */
+} recon_imaging_t;
+
+/* Builds the configuration's set for a medium of the scene's box and η. */
+hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t *medium,
+                                    const recon_scene_t *scene, recon_imaging_t *out);
+void recon_imaging_release(recon_imaging_t *im);
+
+/* The medium of the scene, uncommitted, filled with `values` (3 numbers). */
+hetinv_result_t recon_medium_create(hetinv_context_t *ctx, const recon_scene_t *scene,
+                                    hetinv_medium_t **out);
+/* The ground truth of the scene, committed. */
+hetinv_result_t recon_truth_create(hetinv_context_t *ctx, const recon_scene_t *scene,
+                                   hetinv_medium_t **out);
+
+/* Renders the truth, applies the noise model row by row (one exposure per
+ * row), sets values, errors, weights and (configuration 4) the mask. */
+hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *scene,
+                               const hetinv_medium_t *truth, recon_imaging_t *im);
+/* Measurement files: one EXR row of value_count pixels, channels "value",
+ * "std_error", "weight", "mask", and attributes naming the layout. */
+hetinv_result_t recon_measurements_write(hetinv_context_t *ctx, const recon_imaging_t *im,
+                                         const char *path);
+hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *im,
+                                        const char *path, char *msg, size_t msg_size);
+
+/* Runs the scene's schedule from its uniform initial medium, writing
+ * <output>/checkpoint.bin as it goes and <output>/loss.csv at the end. With
+ * `resume`, continues from the checkpoint if it exists. `quiet` suppresses
+ * the progress line. On success *out holds the recovery and *seconds the
+ * optimisation time. */
+hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *scene,
+                            recon_imaging_t *im, bool resume, bool quiet,
+                            hetinv_medium_t **out, double *seconds);
+
+/* Relative errors |x̂ − x| / x over the voxels, per parameter. */
+typedef struct recon_errors {
+  double mean[3], max[3];
+} recon_errors_t;
+void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *recovered, recon_errors_t *e);
+
+/* Writes recovered_<param>.vol, maps.exr and maps_<param>.png (truth beside
+ * recovery) and errors.csv into the scene's output directory. */
+hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *scene,
+                                    const hetinv_medium_t *truth,
+                                    const hetinv_medium_t *recovered, const recon_errors_t *errors);
+
+/* mkdir -p; 0 on success. */
+int recon_make_dirs(const char *path);
+
+#endif

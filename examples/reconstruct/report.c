@@ -1,0 +1,135 @@
+/* Errors of a recovery and the files that show it. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "recon.h"
+
+void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *rec, recon_errors_t *e) {
+  size_t n = hetinv_medium_voxel_count(truth);
+  for (int p = 0; p < 3; ++p) {
+    const double *a = hetinv_medium_grid(truth, p), *b = hetinv_medium_grid(rec, p);
+    double sum = 0.0, mx = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      double rel = fabs(b[i] - a[i]) / fabs(a[i]);
+      sum += rel;
+      mx = fmax(mx, rel);
+    }
+    e->mean[p] = sum / (double)n;
+    e->max[p] = mx;
+  }
+}
+
+int recon_make_dirs(const char *path) {
+  char buf[1024];
+  snprintf(buf, sizeof buf, "%s", path);
+  for (char *p = buf + 1; *p; ++p) {
+    if (*p != '/') continue;
+    *p = '\0';
+    if (mkdir(buf, 0777) != 0 && errno != EEXIST) return -1;
+    *p = '/';
+  }
+  return mkdir(buf, 0777) != 0 && errno != EEXIST ? -1 : 0;
+}
+
+/* Value of parameter p at section pixel (x, z): the middle y slice. */
+static double section_value(const hetinv_medium_t *m, int p, int32_t x, int32_t z) {
+  int32_t d[3];
+  hetinv_medium_get_dims(m, d);
+  const double *g = hetinv_medium_grid(m, p);
+  return g[((size_t)z * (size_t)d[1] + (size_t)(d[1] / 2)) * (size_t)d[0] + (size_t)x];
+}
+
+/* truth | recovery, side by side with a one-cell gap, each cell `s` pixels. */
+static hetinv_result_t write_png(hetinv_context_t *ctx, const char *dir, int p, const hetinv_medium_t *truth,
+                                 const hetinv_medium_t *rec) {
+  int32_t d[3];
+  hetinv_medium_get_dims(truth, d);
+  int32_t s = 256 / d[0] > 1 ? 256 / d[0] : 1, w = (2 * d[0] + 1) * s, h = d[2] * s;
+  double lo = INFINITY, hi = -INFINITY;
+  for (int32_t z = 0; z < d[2]; ++z) {
+    for (int32_t x = 0; x < d[0]; ++x) {
+      double a = section_value(truth, p, x, z), b = section_value(rec, p, x, z);
+      lo = fmin(lo, fmin(a, b));
+      hi = fmax(hi, fmax(a, b));
+    }
+  }
+  hetinv_image_t *img = NULL;
+  hetinv_result_t r = hetinv_image_create(ctx, w, h, 1, &img);
+  if (r != HETINV_SUCCESS) return r;
+  float *px = hetinv_image_channel_data(img, 0);
+  for (int32_t y = 0; y < h; ++y) {
+    for (int32_t x = 0; x < w; ++x) {
+      int32_t cx = x / s, cz = d[2] - 1 - y / s; /* z up */
+      double v = cx < d[0] ? section_value(truth, p, cx, cz)
+               : cx > d[0] ? section_value(rec, p, cx - d[0] - 1, cz) : lo;
+      px[(size_t)y * (size_t)w + (size_t)x] = (float)v;
+    }
+  }
+  char path[1200];
+  snprintf(path, sizeof path, "%s/maps_%s.png", dir, hetinv_param_name(p));
+  r = hetinv_image_write_png(img, 0, path, lo, hi > lo ? hi : lo + 1.0, HETINV_COLORMAP_VIRIDIS);
+  hetinv_image_destroy(&img);
+  return r;
+}
+
+static hetinv_result_t write_exr(hetinv_context_t *ctx, const char *dir, const hetinv_medium_t *truth,
+                                 const hetinv_medium_t *rec) {
+  int32_t d[3];
+  hetinv_medium_get_dims(truth, d);
+  hetinv_image_t *img = NULL;
+  hetinv_result_t r = hetinv_image_create(ctx, d[0], d[2], 6, &img);
+  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
+    char name[64];
+    for (int which = 0; r == HETINV_SUCCESS && which < 2; ++which) {
+      snprintf(name, sizeof name, "%s_%s", which ? "recovered" : "truth", hetinv_param_name(p));
+      int32_t c = 2 * p + which;
+      r = hetinv_image_set_channel_name(img, c, name);
+      float *px = hetinv_image_channel_data(img, c);
+      for (int32_t z = 0; z < d[2]; ++z) {
+        for (int32_t x = 0; x < d[0]; ++x) {
+          px[(size_t)z * (size_t)d[0] + (size_t)x] = (float)section_value(which ? rec : truth, p, x, z);
+        }
+      }
+    }
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_image_set_attribute_string(img, "hetinv:content", "x-z section at the middle of y; row = z");
+  char path[1200];
+  snprintf(path, sizeof path, "%s/maps.exr", dir);
+  if (r == HETINV_SUCCESS) r = hetinv_image_write_exr(img, path);
+  hetinv_image_destroy(&img);
+  return r;
+}
+
+hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_medium_t *truth,
+                                    const hetinv_medium_t *rec, const recon_errors_t *e) {
+  const char *dir = sc->output;
+  hetinv_result_t r = HETINV_SUCCESS;
+  char path[1200];
+  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
+    snprintf(path, sizeof path, "%s/recovered_%s.vol", dir, hetinv_param_name(p));
+    r = hetinv_medium_write_vol(rec, p, path);
+    if (r == HETINV_SUCCESS) {
+      snprintf(path, sizeof path, "%s/truth_%s.vol", dir, hetinv_param_name(p));
+      r = hetinv_medium_write_vol(truth, p, path);
+    }
+    if (r == HETINV_SUCCESS) r = write_png(ctx, dir, p, truth, rec);
+  }
+  if (r == HETINV_SUCCESS) r = write_exr(ctx, dir, truth, rec);
+  if (r != HETINV_SUCCESS) return r;
+  snprintf(path, sizeof path, "%s/errors.csv", dir);
+  char tmp[1220];
+  snprintf(tmp, sizeof tmp, "%s.tmp", path);
+  FILE *f = fopen(tmp, "w");
+  if (f == NULL) return HETINV_ERROR_IO;
+  fprintf(f, "parameter,mean_relative_error,max_relative_error\n");
+  for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.6f,%.6f\n", hetinv_param_name(p), e->mean[p], e->max[p]);
+  if (fclose(f) != 0 || rename(tmp, path) != 0) {
+    remove(tmp);
+    return HETINV_ERROR_IO;
+  }
+  return HETINV_SUCCESS;
+}

@@ -1,0 +1,364 @@
+/* Reconstruction scenes: the built-in reduced Fig. 4 scene, the JSON
+ * format over it (docs/reconstruct-format.md), and the media they make. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "jsonread.h"
+#include "recon.h"
+
+static const char *const FACE_NAMES[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max", NULL};
+static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
+
+void recon_scene_default(recon_scene_t *sc) {
+  memset(sc, 0, sizeof *sc);
+  snprintf(sc->name, sizeof sc->name, "reduced Fig. 4");
+  /* A 1 mm cube, 8 × 8 section: optical depths across it of 2 to 20, as
+   * the paper's coefficient box gives over 1 mm. */
+  sc->size = 1.0;
+  sc->grid[0] = 8;
+  sc->grid[1] = 1;
+  sc->grid[2] = 8;
+  sc->eta = 1.3;
+  sc->truth_kind = RECON_TRUTH_MIXTURE;
+  sc->truth_seed = 1;
+  double lo[3] = {1.0, 1.0, 0.1}, hi[3] = {10.0, 10.0, 0.6};
+  memcpy(sc->truth_lo, lo, sizeof lo);
+  memcpy(sc->truth_hi, hi, sizeof hi);
+  sc->config = RECON_STEADY;
+  sc->pixels_per_voxel = 1;
+  sc->angle_count = 3;
+  sc->angles[0] = -30.0;
+  sc->angles[1] = 0.0;
+  sc->angles[2] = 30.0;
+  sc->source_faces = 1u << HETINV_FACE_X_MIN | 1u << HETINV_FACE_X_MAX | 1u << HETINV_FACE_Z_MIN | 1u << HETINV_FACE_Z_MAX;
+  sc->camera_faces = sc->source_faces;
+  sc->source_stride = 1;
+  sc->bin_width = 0.125;
+  sc->max_pathlength = 4.0;
+  sc->snr_threshold = 3.0;
+  sc->noise = true;
+  hetinv_noise_model_default(&sc->noise_model);
+  sc->noise_model.seed = 1;
+  sc->weighting = RECON_WEIGHT_RELATIVE;
+  sc->truth_photons = 100000;
+  sc->photons = 2000;
+  sc->batches = 8;
+  sc->method = HETINV_METHOD_ADADELTA;
+  sc->iterations = 300;
+  sc->coarse_fraction = 0.25;
+  sc->minibatch = 16;
+  sc->epsilon = 0.01;
+  sc->decay = 0.95;
+  sc->learning_rate = 0.01;
+  sc->average_window = 40;
+  double blo[3] = {1.0, 1.0, 0.0}, bhi[3] = {10.0, 10.0, 0.6};
+  memcpy(sc->bounds_lo, blo, sizeof blo);
+  memcpy(sc->bounds_hi, bhi, sizeof bhi);
+  for (int p = 0; p < 3; ++p) sc->init[p] = 0.5 * (blo[p] + bhi[p]);
+  sc->level_count = 4;
+  sc->levels[0] = 1;
+  sc->levels[1] = 2;
+  sc->levels[2] = 4;
+  sc->levels[3] = 8;
+  sc->seed = 1;
+  snprintf(sc->output, sizeof sc->output, "out/reconstruct");
+}
+
+/* A list of face names into a bit mask. */
+static int read_faces(jr_t *jr, const cJSON *obj, const char *path, const char *key, uint32_t *mask) {
+  const cJSON *arr = NULL;
+  int count = 0, got = jr_array(jr, obj, path, key, JR_OPTIONAL, 1, &arr, &count);
+  if (got <= 0) return got;
+  char at[JR_PATH_MAX];
+  jr_key(at, path, key);
+  *mask = 0;
+  for (int i = 0; i < count; ++i) {
+    const cJSON *item = cJSON_GetArrayItem(arr, i);
+    int f = -1;
+    for (int k = 0; FACE_NAMES[k] && cJSON_IsString(item); ++k) {
+      if (strcmp(item->valuestring, FACE_NAMES[k]) == 0) f = k;
+    }
+    char el[JR_PATH_MAX];
+    jr_index(el, at, i);
+    if (f < 0) return jr_fail(jr, el, "expected a face name (x_min, x_max, y_min, y_max, z_min, z_max)");
+    *mask |= 1u << f;
+  }
+  return 1;
+}
+
+static int read_int32(jr_t *jr, const cJSON *o, const char *path, const char *key, int64_t lo, int64_t hi, int32_t *out) {
+  int64_t v = *out;
+  int got = jr_integer(jr, o, path, key, JR_OPTIONAL, lo, hi, &v);
+  if (got > 0) *out = (int32_t)v;
+  return got;
+}
+
+static int read_medium(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
+  const cJSON *o = NULL;
+  if (jr_object(jr, root, "", "medium", JR_OPTIONAL, &o) <= 0) return jr->message[0] ? -1 : 0;
+  static const char *const allowed[] = {"size", "grid", "eta", NULL};
+  if (jr_check_object(jr, o, "medium", allowed) < 0) return -1;
+  if (jr_positive(jr, o, "medium", "size", JR_OPTIONAL, &sc->size) < 0) return -1;
+  double g[3] = {sc->grid[0], sc->grid[1], sc->grid[2]};
+  int got = jr_numbers(jr, o, "medium", "grid", JR_OPTIONAL, 3, g);
+  if (got < 0) return -1;
+  for (int a = 0; got > 0 && a < 3; ++a) {
+    if (!(g[a] >= 1 && g[a] <= 256 && g[a] == floor(g[a]))) {
+      return jr_fail(jr, "medium.grid", "element %d is %g; expected an integer from 1 to 256", a, g[a]);
+    }
+    sc->grid[a] = (int32_t)g[a];
+  }
+  if (jr_number(jr, o, "medium", "eta", JR_OPTIONAL, &sc->eta) < 0) return -1;
+  return 0;
+}
+
+static int read_triplet_object(jr_t *jr, const cJSON *o, const char *path, const char *key, double lo[3], double hi[3]) {
+  const cJSON *b = NULL;
+  int got = jr_object(jr, o, path, key, JR_OPTIONAL, &b);
+  if (got <= 0) return got;
+  char at[JR_PATH_MAX];
+  jr_key(at, path, key);
+  static const char *const allowed[] = {"sigma_a", "sigma_s", "g", NULL};
+  if (jr_check_object(jr, b, at, allowed) < 0) return -1;
+  for (int p = 0; p < 3; ++p) {
+    double v[2] = {lo[p], hi[p]};
+    if (jr_numbers(jr, b, at, PARAM_KEYS[p], JR_OPTIONAL, 2, v) < 0) return -1;
+    lo[p] = v[0];
+    hi[p] = v[1];
+  }
+  return 1;
+}
+
+static int read_truth(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
+  const cJSON *o = NULL;
+  int got = jr_object(jr, root, "", "truth", JR_OPTIONAL, &o);
+  if (got <= 0) return got;
+  static const char *const allowed[] = {"kind", "seed", "range", "vol", NULL};
+  if (jr_check_object(jr, o, "truth", allowed) < 0) return -1;
+  static const char *const kinds[] = {"mixture", "smoke", "vol", NULL};
+  if (jr_choice(jr, o, "truth", "kind", JR_OPTIONAL, kinds, &sc->truth_kind) < 0) return -1;
+  int64_t seed = (int64_t)sc->truth_seed;
+  if (jr_integer(jr, o, "truth", "seed", JR_OPTIONAL, 0, INT64_MAX, &seed) < 0) return -1;
+  sc->truth_seed = (uint64_t)seed;
+  if (read_triplet_object(jr, o, "truth", "range", sc->truth_lo, sc->truth_hi) < 0) return -1;
+  const cJSON *v = NULL;
+  got = jr_object(jr, o, "truth", "vol", sc->truth_kind == RECON_TRUTH_VOL ? JR_REQUIRED : JR_OPTIONAL, &v);
+  if (got < 0) return -1;
+  for (int p = 0; got > 0 && p < 3; ++p) {
+    const char *s = NULL;
+    if (jr_string(jr, v, "truth.vol", PARAM_KEYS[p], JR_REQUIRED, &s) < 0) return -1;
+    snprintf(sc->truth_vol[p], sizeof sc->truth_vol[p], "%s", s);
+  }
+  return 0;
+}
+
+static int read_imaging(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
+  const cJSON *o = NULL;
+  int got = jr_object(jr, root, "", "imaging", JR_OPTIONAL, &o);
+  if (got <= 0) return got;
+  static const char *const allowed[] = {"configuration", "pixels_per_voxel", "angles", "source_faces",
+                                        "camera_faces", "source_stride", "bin_width", "max_pathlength",
+                                        "snr_threshold", NULL};
+  if (jr_check_object(jr, o, "imaging", allowed) < 0) return -1;
+  static const char *const configs[] = {"pathlength", "steady", "pathlength_angles", "combined", NULL};
+  int c = (int)sc->config - 1;
+  if (jr_choice(jr, o, "imaging", "configuration", JR_OPTIONAL, configs, &c) < 0) return -1;
+  sc->config = (recon_config_t)(c + 1);
+  if (read_int32(jr, o, "imaging", "pixels_per_voxel", 1, 16, &sc->pixels_per_voxel) < 0) return -1;
+  if (read_int32(jr, o, "imaging", "source_stride", 1, 4096, &sc->source_stride) < 0) return -1;
+  const cJSON *arr = NULL;
+  int count = 0;
+  got = jr_array(jr, o, "imaging", "angles", JR_OPTIONAL, 1, &arr, &count);
+  if (got < 0) return -1;
+  if (got > 0) {
+    if (count > RECON_MAX_ANGLES) return jr_fail(jr, "imaging.angles", "at most %d angles", RECON_MAX_ANGLES);
+    sc->angle_count = count;
+    for (int i = 0; i < count; ++i) {
+      char el[JR_PATH_MAX];
+      jr_index(el, "imaging.angles", i);
+      if (jr_item_number(jr, cJSON_GetArrayItem(arr, i), el, &sc->angles[i]) < 0) return -1;
+      if (!(fabs(sc->angles[i]) < 80.0)) return jr_fail(jr, el, "is %g; expected degrees in (-80, 80)", sc->angles[i]);
+    }
+  }
+  if (read_faces(jr, o, "imaging", "source_faces", &sc->source_faces) < 0) return -1;
+  if (read_faces(jr, o, "imaging", "camera_faces", &sc->camera_faces) < 0) return -1;
+  if (jr_positive(jr, o, "imaging", "bin_width", JR_OPTIONAL, &sc->bin_width) < 0) return -1;
+  if (jr_positive(jr, o, "imaging", "max_pathlength", JR_OPTIONAL, &sc->max_pathlength) < 0) return -1;
+  if (jr_positive(jr, o, "imaging", "snr_threshold", JR_OPTIONAL, &sc->snr_threshold) < 0) return -1;
+  return 0;
+}
+
+static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
+  const cJSON *o = NULL;
+  int got = jr_object(jr, root, "", "acquisition", JR_OPTIONAL, &o);
+  if (got <= 0) return got;
+  static const char *const allowed[] = {"noise", "full_well", "read_noise", "seed", "weighting",
+                                        "photons", "measurements", NULL};
+  if (jr_check_object(jr, o, "acquisition", allowed) < 0) return -1;
+  const cJSON *noise = jr_get(o, "noise");
+  if (noise && !cJSON_IsBool(noise)) return jr_fail(jr, "acquisition.noise", "expected true or false");
+  if (noise) sc->noise = cJSON_IsTrue(noise);
+  if (jr_positive(jr, o, "acquisition", "full_well", JR_OPTIONAL, &sc->noise_model.full_well) < 0) return -1;
+  if (jr_number(jr, o, "acquisition", "read_noise", JR_OPTIONAL, &sc->noise_model.read_noise) < 0) return -1;
+  int64_t v = (int64_t)sc->noise_model.seed;
+  if (jr_integer(jr, o, "acquisition", "seed", JR_OPTIONAL, 0, INT64_MAX, &v) < 0) return -1;
+  sc->noise_model.seed = (uint64_t)v;
+  static const char *const weights[] = {"variance", "relative", "uniform", NULL};
+  if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, weights, &sc->weighting) < 0) return -1;
+  if (jr_integer(jr, o, "acquisition", "photons", JR_OPTIONAL, 1, (int64_t)1 << 40, &sc->truth_photons) < 0) return -1;
+  const char *s = NULL;
+  if (jr_string(jr, o, "acquisition", "measurements", JR_OPTIONAL, &s) < 0) return -1;
+  if (s) snprintf(sc->measurements, sizeof sc->measurements, "%s", s);
+  return 0;
+}
+
+static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
+  const cJSON *o = NULL;
+  int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
+  if (got <= 0) return got;
+  static const char *const allowed[] = {"method", "iterations", "coarse_fraction", "minibatch", "epsilon",
+                                        "decay", "learning_rate", "average_window", "time_budget", "bounds",
+                                        "init", "levels", "layerwise_layers", NULL};
+  if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
+  static const char *const methods[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
+  if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, methods, &sc->method) < 0) return -1;
+  if (jr_integer(jr, o, "optimizer", "iterations", JR_OPTIONAL, 1, (int64_t)1 << 40, &sc->iterations) < 0) return -1;
+  if (jr_positive(jr, o, "optimizer", "coarse_fraction", JR_OPTIONAL, &sc->coarse_fraction) < 0) return -1;
+  if (read_int32(jr, o, "optimizer", "minibatch", 0, INT32_MAX, &sc->minibatch) < 0) return -1;
+  if (jr_positive(jr, o, "optimizer", "epsilon", JR_OPTIONAL, &sc->epsilon) < 0) return -1;
+  if (jr_number(jr, o, "optimizer", "decay", JR_OPTIONAL, &sc->decay) < 0) return -1;
+  if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;
+  if (read_int32(jr, o, "optimizer", "average_window", 1, 4096, &sc->average_window) < 0) return -1;
+  if (jr_number(jr, o, "optimizer", "time_budget", JR_OPTIONAL, &sc->time_budget) < 0) return -1;
+  if (read_triplet_object(jr, o, "optimizer", "bounds", sc->bounds_lo, sc->bounds_hi) < 0) return -1;
+  for (int p = 0; p < 3; ++p) sc->init[p] = 0.5 * (sc->bounds_lo[p] + sc->bounds_hi[p]);
+  if (jr_numbers(jr, o, "optimizer", "init", JR_OPTIONAL, 3, sc->init) < 0) return -1;
+  if (read_int32(jr, o, "optimizer", "layerwise_layers", 0, 256, &sc->layerwise_layers) < 0) return -1;
+  const cJSON *arr = NULL;
+  int count = 0;
+  got = jr_array(jr, o, "optimizer", "levels", JR_OPTIONAL, 1, &arr, &count);
+  if (got < 0) return -1;
+  if (got > 0) {
+    if (count > RECON_MAX_LEVELS) return jr_fail(jr, "optimizer.levels", "at most %d levels", RECON_MAX_LEVELS);
+    sc->level_count = count;
+    for (int i = 0; i < count; ++i) {
+      char el[JR_PATH_MAX];
+      jr_index(el, "optimizer.levels", i);
+      double v = 0;
+      if (jr_item_number(jr, cJSON_GetArrayItem(arr, i), el, &v) < 0) return -1;
+      if (!(v >= 1 && v <= 256 && v == floor(v))) return jr_fail(jr, el, "is %g; expected cells per axis, an integer from 1 to 256", v);
+      sc->levels[i] = (int32_t)v;
+    }
+  }
+  return 0;
+}
+
+int recon_scene_read(const char *path, recon_scene_t *sc, char *msg, size_t msg_size) {
+  jr_t jr = {.file = path};
+  char *text = NULL;
+  cJSON *root = NULL;
+  int rc = jr_load(&jr, path, &text, &root);
+  if (rc == 0 && !cJSON_IsObject(root)) rc = jr_fail(&jr, "", "expected an object");
+  static const char *const allowed[] = {"name", "medium", "truth", "imaging", "acquisition", "estimator",
+                                        "optimizer", "seed", "threads", "output", NULL};
+  if (rc == 0) rc = jr_check_object(&jr, root, "", allowed);
+  const char *s = NULL;
+  if (rc == 0 && jr_string(&jr, root, "", "name", JR_OPTIONAL, &s) < 0) rc = -1;
+  if (rc == 0 && s) snprintf(sc->name, sizeof sc->name, "%s", s);
+  s = NULL;
+  if (rc == 0 && jr_string(&jr, root, "", "output", JR_OPTIONAL, &s) < 0) rc = -1;
+  if (rc == 0 && s) snprintf(sc->output, sizeof sc->output, "%s", s);
+  int64_t v = (int64_t)sc->seed;
+  if (rc == 0 && jr_integer(&jr, root, "", "seed", JR_OPTIONAL, 0, INT64_MAX, &v) < 0) rc = -1;
+  sc->seed = (uint64_t)v;
+  if (rc == 0 && read_int32(&jr, root, "", "threads", 0, 4096, &sc->threads) < 0) rc = -1;
+  if (rc == 0) rc = read_medium(&jr, root, sc);
+  if (rc == 0) rc = read_truth(&jr, root, sc);
+  if (rc == 0) rc = read_imaging(&jr, root, sc);
+  if (rc == 0) rc = read_acquisition(&jr, root, sc);
+  const cJSON *e = NULL;
+  if (rc == 0 && jr_object(&jr, root, "", "estimator", JR_OPTIONAL, &e) < 0) rc = -1;
+  static const char *const est_allowed[] = {"photons", "batches", NULL};
+  if (rc == 0 && e && jr_check_object(&jr, e, "estimator", est_allowed) < 0) rc = -1;
+  if (rc == 0 && e && jr_integer(&jr, e, "estimator", "photons", JR_OPTIONAL, 1, (int64_t)1 << 40, &sc->photons) < 0) rc = -1;
+  if (rc == 0 && e && read_int32(&jr, e, "estimator", "batches", 2, 65536, &sc->batches) < 0) rc = -1;
+  if (rc == 0) rc = read_optimizer(&jr, root, sc);
+  if (rc != 0) snprintf(msg, msg_size, "%s", jr.message);
+  cJSON_Delete(root);
+  free(text);
+  if (rc == 0) rc = recon_scene_check(sc, msg, msg_size);
+  return rc < 0 ? -1 : 0;
+}
+
+int recon_scene_check(const recon_scene_t *sc, char *msg, size_t n) {
+  if (sc->grid[0] != sc->grid[2] || (sc->grid[1] != 1 && sc->grid[1] != sc->grid[0])) {
+    snprintf(msg, n, "medium.grid: %d x %d x %d; expected n x 1 x n (a section) or n x n x n", (int)sc->grid[0],
+             (int)sc->grid[1], (int)sc->grid[2]);
+    return -1;
+  }
+  for (int p = 0; p < 3; ++p) {
+    if (!(sc->bounds_lo[p] < sc->bounds_hi[p]) || sc->init[p] < sc->bounds_lo[p] || sc->init[p] > sc->bounds_hi[p]) {
+      snprintf(msg, n, "optimizer: %s starts at %g, outside its bounds [%g, %g] (or the bounds are empty)",
+               PARAM_KEYS[p], sc->init[p], sc->bounds_lo[p], sc->bounds_hi[p]);
+      return -1;
+    }
+  }
+  if (sc->grid[1] == 1 && (sc->source_faces | sc->camera_faces) & (1u << HETINV_FACE_Y_MIN | 1u << HETINV_FACE_Y_MAX)) {
+    snprintf(msg, n, "imaging: a 2D section has no sources or cameras on y_min / y_max");
+    return -1;
+  }
+  if (sc->source_faces == 0) {
+    snprintf(msg, n, "imaging.source_faces: no face carries a source");
+    return -1;
+  }
+  if ((sc->config == RECON_STEADY || sc->config == RECON_COMBINED) && sc->camera_faces == 0) {
+    snprintf(msg, n, "imaging.camera_faces: steady-state configurations need a camera");
+    return -1;
+  }
+  if (sc->config != RECON_STEADY && sc->max_pathlength < sc->bin_width) {
+    snprintf(msg, n, "imaging.max_pathlength (%g) is shorter than one bin (%g)", sc->max_pathlength, sc->bin_width);
+    return -1;
+  }
+  if (sc->level_count < 1) {
+    snprintf(msg, n, "optimizer.levels: at least one level");
+    return -1;
+  }
+  return 0;
+}
+
+hetinv_result_t recon_medium_create(hetinv_context_t *ctx, const recon_scene_t *sc, hetinv_medium_t **out) {
+  double lo[3] = {0, 0, 0}, hi[3] = {sc->size, sc->size, sc->size};
+  hetinv_result_t r = hetinv_medium_create(ctx, lo, hi, sc->grid, out);
+  if (r == HETINV_SUCCESS) r = hetinv_medium_set_ior(*out, sc->eta, 1.0);
+  if (r != HETINV_SUCCESS) hetinv_medium_destroy(out);
+  return r;
+}
+
+hetinv_result_t recon_truth_create(hetinv_context_t *ctx, const recon_scene_t *sc, hetinv_medium_t **out) {
+  hetinv_medium_t *m = NULL;
+  hetinv_result_t r = recon_medium_create(ctx, sc, &m);
+  if (r == HETINV_SUCCESS && sc->truth_kind == RECON_TRUTH_MIXTURE) {
+    hetinv_mixture_spec_t spec;
+    hetinv_mixture_spec_default(&spec);
+    memcpy(spec.lo, sc->truth_lo, sizeof spec.lo);
+    memcpy(spec.hi, sc->truth_hi, sizeof spec.hi);
+    spec.constant_axis = sc->grid[1] == 1 ? 1 : -1;
+    spec.seed = sc->truth_seed;
+    r = hetinv_volume_gaussian_mixture(m, &spec);
+  } else if (r == HETINV_SUCCESS && sc->truth_kind == RECON_TRUTH_SMOKE) {
+    hetinv_smoke_spec_t spec;
+    hetinv_smoke_spec_default(&spec);
+    memcpy(spec.lo, sc->truth_lo, sizeof spec.lo);
+    memcpy(spec.hi, sc->truth_hi, sizeof spec.hi);
+    spec.seed = sc->truth_seed;
+    r = hetinv_volume_smoke(m, &spec);
+  } else {
+    for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) r = hetinv_medium_read_vol(m, p, sc->truth_vol[p]);
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_medium_commit(m);
+  if (r != HETINV_SUCCESS) hetinv_medium_destroy(&m);
+  *out = m;
+  return r;
+}

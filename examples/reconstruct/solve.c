@@ -1,0 +1,134 @@
+/* The optimizer schedule of a scene (layer-wise stages, then coarse to
+ * fine), a progress line with an ETA, and checkpoint/resume. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "recon.h"
+
+typedef struct progress_line {
+  bool quiet, tty;
+  int64_t last_printed;
+  double elapsed; /* optimisation seconds so far, across resumes */
+} progress_line_t;
+
+static void format_duration(double s, char *out, size_t n) {
+  if (!(s >= 0.0) || s > 1e7) {
+    snprintf(out, n, "--");
+  } else if (s >= 3600.0) {
+    snprintf(out, n, "%dh%02dm", (int)(s / 3600.0), (int)fmod(s / 60.0, 60.0));
+  } else {
+    snprintf(out, n, "%dm%02ds", (int)(s / 60.0), (int)fmod(s, 60.0));
+  }
+}
+
+static int on_progress(const hetinv_progress_t *p, void *user) {
+  progress_line_t *pl = user;
+  pl->elapsed = p->elapsed;
+  if (pl->quiet) return 0;
+  /* The ETA assumes the remaining iterations cost what the past ones did
+   * on average (finer stages cost the same: the photon count is fixed). */
+  double eta = p->elapsed / (double)p->iteration * (double)(p->total_iterations - p->iteration);
+  char e1[32], e2[32];
+  format_duration(p->elapsed, e1, sizeof e1);
+  format_duration(eta, e2, sizeof e2);
+  bool last = p->iteration == p->total_iterations;
+  /* On a terminal the line is redrawn; in a log, one line every 5 %. */
+  int64_t every = p->total_iterations / 20 > 0 ? p->total_iterations / 20 : 1;
+  if (!pl->tty && !last && p->iteration - pl->last_printed < every) return 0;
+  pl->last_printed = p->iteration;
+  fprintf(stderr, "%sstage %d/%d  iteration %lld/%lld  loss %.4g  step %.3g  elapsed %s  ETA %s%s",
+          pl->tty ? "\r" : "", (int)p->stage + 1, (int)p->stage_count, (long long)p->iteration,
+          (long long)p->total_iterations, p->loss, p->step, e1, e2, pl->tty && !last ? "   " : "\n");
+  fflush(stderr);
+  return 0;
+}
+
+static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *sc) {
+  hetinv_result_t r = HETINV_SUCCESS;
+  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) r = hetinv_optimizer_set_bounds(opt, p, sc->bounds_lo[p], sc->bounds_hi[p]);
+  struct { hetinv_optimizer_param_t id; double value; } params[] = {
+      {HETINV_OPTIMIZER_METHOD, sc->method},
+      {HETINV_OPTIMIZER_MINIBATCH, sc->minibatch},
+      {HETINV_OPTIMIZER_EPSILON, sc->epsilon},
+      {HETINV_OPTIMIZER_DECAY, sc->decay},
+      {HETINV_OPTIMIZER_LEARNING_RATE, sc->learning_rate},
+      {HETINV_OPTIMIZER_AVERAGE_WINDOW, sc->average_window},
+      {HETINV_OPTIMIZER_TIME_BUDGET, sc->time_budget},
+      {HETINV_OPTIMIZER_ITERATIONS, (double)sc->iterations},
+      {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10},
+  };
+  for (size_t i = 0; r == HETINV_SUCCESS && i < sizeof params / sizeof params[0]; ++i) {
+    r = hetinv_optimizer_set_param(opt, params[i].id, params[i].value);
+  }
+  return r;
+}
+
+hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, recon_imaging_t *im,
+                            bool resume, bool quiet, hetinv_medium_t **out, double *seconds) {
+  *out = NULL;
+  hetinv_medium_t *init = NULL;
+  hetinv_optimizer_t *opt = NULL;
+  hetinv_estimator_t *est = NULL;
+  hetinv_param_map_t *maps[RECON_MAX_LEVELS + 1] = {NULL};
+  hetinv_result_t r = recon_medium_create(ctx, sc, &init);
+  if (r == HETINV_SUCCESS) r = hetinv_medium_fill(init, sc->init[0], sc->init[1], sc->init[2]);
+  if (r == HETINV_SUCCESS) r = hetinv_medium_commit(init);
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_create(ctx, im->set, init, &opt);
+  if (r == HETINV_SUCCESS) r = configure(opt, sc);
+  if (r == HETINV_SUCCESS && sc->layerwise_layers > 0) {
+    r = hetinv_param_map_create_identity(init, HETINV_FREE_ALL, &maps[RECON_MAX_LEVELS]);
+    double h = sc->size / sc->grid[0];
+    int64_t it = (int64_t)ceil(sc->coarse_fraction * (double)sc->iterations);
+    if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_layerwise_stages(opt, maps[RECON_MAX_LEVELS], h, sc->layerwise_layers, (int32_t)it);
+  }
+  /* Coarse to fine: each level a coarse grid (the last one the voxel grid). */
+  for (int32_t l = 0; r == HETINV_SUCCESS && l < sc->level_count; ++l) {
+    int32_t cells[3];
+    for (int a = 0; a < 3; ++a) cells[a] = sc->grid[a] == 1 ? 1 : (sc->levels[l] < sc->grid[a] ? sc->levels[l] : sc->grid[a]);
+    r = hetinv_param_map_create_coarse(init, cells, HETINV_FREE_ALL, &maps[l]);
+    bool finest = l + 1 == sc->level_count;
+    int64_t it = finest ? sc->iterations : (int64_t)ceil(sc->coarse_fraction * (double)sc->iterations);
+    hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL};
+    if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_stage(opt, &stage);
+  }
+  progress_line_t pl = {.quiet = quiet, .tty = isatty(2) != 0};
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_progress(opt, on_progress, &pl);
+  char checkpoint[1100];
+  snprintf(checkpoint, sizeof checkpoint, "%s/checkpoint.bin", sc->output);
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_checkpoint(opt, checkpoint);
+  struct stat st;
+  if (r == HETINV_SUCCESS && resume && stat(checkpoint, &st) == 0) {
+    r = hetinv_optimizer_resume(opt, checkpoint);
+    if (r == HETINV_SUCCESS && !quiet) fprintf(stderr, "resuming from %s\n", checkpoint);
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)sc->photons);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, sc->batches);
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_run(opt, est, &why);
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_result(opt, out);
+  if (seconds) *seconds = pl.elapsed;
+  if (r == HETINV_SUCCESS) {
+    /* The loss of every iteration (resumed runs included), written atomically. */
+    size_t n = 0;
+    const double *losses = hetinv_optimizer_losses(opt, &n);
+    char path[1100];
+    snprintf(path, sizeof path, "%s/loss.csv", sc->output);
+    char tmp[1120];
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    FILE *f = fopen(tmp, "w");
+    if (f) {
+      fprintf(f, "iteration,loss\n");
+      for (size_t i = 0; i < n; ++i) fprintf(f, "%zu,%.9g\n", i + 1, losses[i]);
+      if (fclose(f) == 0) rename(tmp, path); else remove(tmp);
+    }
+  }
+  for (int i = 0; i <= RECON_MAX_LEVELS; ++i) hetinv_param_map_destroy(&maps[i]);
+  hetinv_estimator_destroy(&est);
+  hetinv_optimizer_destroy(&opt);
+  hetinv_medium_destroy(&init);
+  return r;
+}
