@@ -54,7 +54,8 @@ extern "C" {
  * program.
  *
  * Collective over @p comm. Not thread-safe with respect to any other use of
- * the same context: call it before creating objects from the context.
+ * the same context; estimators already created from the context use the
+ * new communicator from their next call.
  * @param ctx the context.
  * @param comm an intracommunicator; its ranks must all make this call.
  * @return HETINV_SUCCESS;
