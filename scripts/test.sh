@@ -7,7 +7,8 @@
 #  3. the MPI variant (-DHETINV_WITH_MPI=ON, optimised, build-mpi/): its
 #     unit tests and the mpi tests, which run small renders and gradients
 #     under mpirun on 1, 2 and 4 ranks and compare them bitwise with each
-#     other and with build-release/ (without MPI);
+#     other and with build-release/ (without MPI), and the installed MPI
+#     library's pkg-config file and CMake package;
 #  4. the libFuzzer harnesses, built with clang, each for a short smoke run
 #     (build-fuzz/).
 # Ends with one line "hetinv: N passed, M failed".
@@ -54,7 +55,7 @@ echo "== MPI build: unit tests and rank-count independence"
 cmake -S . -B build-mpi -DCMAKE_BUILD_TYPE=Release -DHETINV_WITH_MPI=ON -DHETINV_WERROR=ON \
   -DHETINV_BUILD_EXAMPLES=OFF -DHETINV_SERIAL_BUILD_DIR="$PWD/build-release" >/dev/null
 cmake --build build-mpi -j"$jobs"
-run_suite build-mpi -L "^(mpi|unit)$"
+run_suite build-mpi -L "^(mpi|unit|install)$"
 
 echo "== fuzz build (clang, libFuzzer)"
 CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DHETINV_BUILD_FUZZERS=ON \

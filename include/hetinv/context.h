@@ -79,8 +79,11 @@ typedef struct hetinv_context_init {
  *         HETINV_ERROR_INVALID_ARGUMENT if init->size is smaller than the
  *         first version of the struct, thread_count < 0, or exactly one of
  *         alloc_fn / free_fn is set;
- *         HETINV_ERROR_OUT_OF_MEMORY.
- * Thread-safe.
+ *         HETINV_ERROR_OUT_OF_MEMORY;
+ *         HETINV_ERROR_INTERNAL if, in a build with MPI and with MPI
+ *         initialised, MPI_Comm_dup of MPI_COMM_WORLD fails.
+ * Thread-safe; in a build with MPI and with MPI initialised, collective
+ * over MPI_COMM_WORLD (every rank creates its contexts in the same order).
  */
 HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *init,
                                                  hetinv_context_t **out);
