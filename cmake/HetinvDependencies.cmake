@@ -39,6 +39,18 @@ if(NOT OpenMP_C_FOUND)
   hetinv_missing("OpenMP for C" "libgomp1 (gcc) or libomp-dev (clang)")
 endif()
 
+if(HETINV_WITH_MPI)
+  find_package(MPI QUIET COMPONENTS C)
+  if(NOT MPI_C_FOUND)
+    hetinv_missing("MPI for C (because HETINV_WITH_MPI is ON; or -DHETINV_WITH_MPI=OFF)"
+                   "libopenmpi-dev openmpi-bin")
+  endif()
+  # The mpi test runs programs under mpirun.
+  if(HETINV_BUILD_TESTS AND NOT MPIEXEC_EXECUTABLE)
+    hetinv_missing("mpirun (for the mpi tests; or -DHETINV_BUILD_TESTS=OFF)" "openmpi-bin")
+  endif()
+endif()
+
 if(HETINV_BUILD_TESTS)
   pkg_check_modules(CMOCKA QUIET IMPORTED_TARGET cmocka)
   if(NOT CMOCKA_FOUND)

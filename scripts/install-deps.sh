@@ -7,7 +7,8 @@ set -eu
 mode=${1:-demo}
 pkgs="build-essential cmake pkg-config libopenexr-dev librandom123-dev libpng-dev libcjson-dev"
 if [ "$mode" = test ]; then
-  pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils"
+  # openmpi-*: the MPI build variant (HETINV_WITH_MPI) of scripts/test.sh
+  pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils openmpi-bin libopenmpi-dev"
 fi
 
 missing=""

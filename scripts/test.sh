@@ -4,7 +4,12 @@
 #     as errors (build-test/); Monte Carlo validation tests at reduced size;
 #  2. the Monte Carlo validation tests at full size in an optimised build
 #     (build-release/);
-#  3. the libFuzzer harnesses, built with clang, each for a short smoke run
+#  3. the MPI variant (-DHETINV_WITH_MPI=ON, optimised, build-mpi/): its
+#     unit tests and the mpi tests, which run small renders and gradients
+#     under mpirun on 1, 2 and 4 ranks and compare them bitwise with each
+#     other and with build-release/ (without MPI), and the installed MPI
+#     library's pkg-config file and CMake package;
+#  4. the libFuzzer harnesses, built with clang, each for a short smoke run
 #     (build-fuzz/).
 # Ends with one line "hetinv: N passed, M failed".
 set -eu
@@ -45,6 +50,12 @@ echo "== optimised build: validation at full size"
 cmake -S . -B build-release -DCMAKE_BUILD_TYPE=Release -DHETINV_WERROR=ON >/dev/null
 cmake --build build-release -j"$jobs"
 run_suite build-release -L validation
+
+echo "== MPI build: unit tests and rank-count independence"
+cmake -S . -B build-mpi -DCMAKE_BUILD_TYPE=Release -DHETINV_WITH_MPI=ON -DHETINV_WERROR=ON \
+  -DHETINV_BUILD_EXAMPLES=OFF -DHETINV_SERIAL_BUILD_DIR="$PWD/build-release" >/dev/null
+cmake --build build-mpi -j"$jobs"
+run_suite build-mpi -L "^(mpi|unit|install)$"
 
 echo "== fuzz build (clang, libFuzzer)"
 CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DHETINV_BUILD_FUZZERS=ON \

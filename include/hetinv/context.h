@@ -6,6 +6,14 @@
  * destroyed before it. A context may be used from several threads at once
  * (its state is read-only after creation); the objects created from it have
  * their own rules, stated in their headers.
+ *
+ * Distributed runs: in a build with MPI (hetinv_build_has_mpi() is 1), a
+ * context created while MPI is initialised works on a dup of
+ * MPI_COMM_WORLD (or on the communicator given to
+ * hetinv_context_set_mpi_comm(), declared in hetinv/mpi.h), and the
+ * estimator shares its work among the communicator's ranks. Creating and
+ * destroying such a context are then collective over that communicator.
+ * Otherwise a context is rank 0 of 1 and never communicates.
  */
 #ifndef HETINV_CONTEXT_H
 #define HETINV_CONTEXT_H
@@ -71,8 +79,11 @@ typedef struct hetinv_context_init {
  *         HETINV_ERROR_INVALID_ARGUMENT if init->size is smaller than the
  *         first version of the struct, thread_count < 0, or exactly one of
  *         alloc_fn / free_fn is set;
- *         HETINV_ERROR_OUT_OF_MEMORY.
- * Thread-safe.
+ *         HETINV_ERROR_OUT_OF_MEMORY;
+ *         HETINV_ERROR_INTERNAL if, in a build with MPI and with MPI
+ *         initialised, MPI_Comm_dup of MPI_COMM_WORLD fails.
+ * Thread-safe; in a build with MPI and with MPI initialised, collective
+ * over MPI_COMM_WORLD (every rank creates its contexts in the same order).
  */
 HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *init,
                                                  hetinv_context_t **out);
@@ -92,6 +103,34 @@ HETINV_API void hetinv_context_destroy(hetinv_context_t **ctx);
  * @param ctx the context; NULL gives 0. Thread-safe.
  */
 HETINV_API int32_t hetinv_context_thread_count(const hetinv_context_t *ctx);
+
+/**
+ * @brief This process's rank in the context's communicator.
+ *
+ * 0 in a build without MPI, when MPI was not initialised at the context's
+ * creation, or on the first rank of a distributed run. Every rank computes
+ * the same estimator results, so a program that writes files can write them
+ * on rank 0 only.
+ * @param ctx the context; NULL gives 0. Thread-safe.
+ * @return the rank, in [0, hetinv_context_rank_count(ctx)).
+ */
+HETINV_API int32_t hetinv_context_rank(const hetinv_context_t *ctx);
+
+/**
+ * @brief Number of ranks (processes) the context's estimators share their
+ *        work with.
+ * @param ctx the context; NULL gives 1. Thread-safe.
+ * @return 1 in a build without MPI or when MPI was not initialised at the
+ *         context's creation; otherwise the size of its communicator.
+ */
+HETINV_API int32_t hetinv_context_rank_count(const hetinv_context_t *ctx);
+
+/**
+ * @brief Whether this library was built with MPI (-DHETINV_WITH_MPI=ON),
+ *        i.e. whether hetinv/mpi.h and hetinv_context_set_mpi_comm() exist.
+ * @return 1 with MPI, 0 without. Thread-safe.
+ */
+HETINV_API int hetinv_build_has_mpi(void);
 
 /**
  * @brief Base seed of the context's random streams.

@@ -14,12 +14,17 @@
  *
  * Determinism: the random numbers of photon i of emitter e are a Philox
  * stream keyed by (context seed, stream parameter, e, i), and photons are
- * summed in batches reduced in a fixed order, so results are bitwise
- * identical whatever the number of threads. The batches also give each
- * value's standard error (from the spread of batch means).
+ * summed in batches reduced in a fixed order (per emitter, then over
+ * emitters in emitter order), so results are bitwise identical whatever
+ * the number of threads, and in a build with MPI whatever the number of
+ * ranks (hetinv/mpi.h). The batches also give each value's standard error
+ * (from the spread of batch means).
  *
  * An estimator belongs to one thread at a time; it runs its own parallel
- * loop with the context's thread count.
+ * loop with the context's thread count. When the context has several MPI
+ * ranks (hetinv_context_rank_count() > 1), render, gradient and
+ * loss_gradient are collective: every rank makes the same calls with the
+ * same arguments and receives the same results.
  */
 #ifndef HETINV_ESTIMATOR_H
 #define HETINV_ESTIMATOR_H
@@ -183,6 +188,9 @@ HETINV_API hetinv_result_t hetinv_estimator_render(hetinv_estimator_t *estimator
  * @param map parameter map made for the medium's grid.
  * @param[out] grad receives hetinv_param_map_size(map) values.
  * @param[out] grad_std_errors their Monte Carlo standard errors; may be NULL.
+ *        Each emitter's batch means give its variance; the emitters'
+ *        variances are summed (emitters trace independent photons). Asking
+ *        for them costs one pull-back through @p map per emitter and batch.
  * @param grad_count length of @p grad (and @p grad_std_errors).
  * @return as hetinv_estimator_render(), plus HETINV_ERROR_INVALID_ARGUMENT
  *         for a non-finite cotangent, a map of another grid or a wrong

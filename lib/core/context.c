@@ -6,6 +6,7 @@
 #endif
 
 #include "core/alloc.h"
+#include "core/comm.h"
 #include "core/context_internal.h"
 #include "core/error.h"
 
@@ -58,12 +59,18 @@ HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *in
     return HV_FAIL(&proto, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu bytes", sizeof *ctx);
   }
   *ctx = proto;
+  hetinv_result_t r = hv_comm_context_init(ctx, __func__);
+  if (r != HETINV_SUCCESS) {
+    hv_free(&proto, ctx);
+    return r;
+  }
   *out = ctx;
   return HETINV_SUCCESS;
 }
 
 HETINV_API void hetinv_context_destroy(hetinv_context_t **ctx) {
   if (ctx == NULL || *ctx == NULL) return;
+  hv_comm_context_release(*ctx);
   hetinv_context_t copy = **ctx; /* the hooks outlive the block they free */
   hv_free(&copy, *ctx);
   *ctx = NULL;

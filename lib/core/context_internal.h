@@ -4,6 +4,10 @@
 
 #include "hetinv/context.h"
 
+#ifdef HETINV_WITH_MPI
+#include <mpi.h>
+#endif
+
 struct hetinv_context {
   hetinv_alloc_fn alloc_fn;
   hetinv_free_fn free_fn;
@@ -12,6 +16,12 @@ struct hetinv_context {
   void *error_user_data;
   int32_t thread_count; /* resolved: always >= 1 */
   uint64_t seed;
+  /* Which process of a distributed run this context is (core/comm.h):
+   * 0 of 1 unless an MPI communicator is attached. */
+  int32_t rank, rank_count;
+#ifdef HETINV_WITH_MPI
+  MPI_Comm comm; /* the library's own dup, or MPI_COMM_NULL */
+#endif
 };
 
 #endif

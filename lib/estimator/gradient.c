@@ -4,48 +4,58 @@
 #include <string.h>
 
 #include "core/alloc.h"
+#include "core/comm.h"
 #include "core/error.h"
 #include "estimator/batches.h"
 #include "estimator/pass.h"
+#include "estimator/record.h"
 #include "hetinv/param.h"
 #include "optimize/param_map_internal.h"
 #include "medium/medium_internal.h"
 #include "sampling/measurements_internal.h"
 
+/* Reduction order, the same for any thread count and any rank count:
+ * items run emitter-major over this rank's emitters (item = (e - lo)·B + b);
+ * an emitter's batches are summed in batch order into its own partial
+ * gradient (voxel space, with its touched voxels); each finished emitter's
+ * partial becomes a record (the touched voxels and their three entries,
+ * and for standard errors its squared standard error per π entry), and the
+ * records are added to the totals in emitter order. One rank adds each
+ * record as soon as it is made; several ranks gather every rank's records
+ * (rank blocks are contiguous, so the concatenation is in emitter order)
+ * and every rank adds them all: the same additions in the same order. */
 typedef struct gradient {
   const hv_pass_t *pass;
   const hetinv_param_map_t *map;
   size_t voxels, k;        /* voxel count; length of π */
   hv_tally_t *tallies;     /* one per thread */
   hv_grad_tally_t *grads;  /* one per thread */
-  double *total;           /* Σ of every item, per voxel entry (3 blocks) */
-  /* For standard errors only: the current batch summed over emitters (per
-   * voxel entry, with its touched voxels), and per π entry the sum and sum
-   * of squares of batch means. */
-  hv_grad_tally_t batch;
-  double *pi_batch, *mean_sum, *mean_sq;
+  hv_grad_tally_t emitter; /* the current emitter's partial gradient */
+  double *total;           /* Σ over emitters, per voxel entry (3 blocks) */
+  /* For standard errors only: the current emitter's batch means pulled
+   * back to π (the current one, their sum and sum of squares), and per π
+   * entry the sum over finished emitters of their squared errors. */
+  double *pi_batch, *mean_sum, *mean_sq, *var;
+  hv_record_t records; /* finished emitters not yet added */
   bool out_of_memory;
 } gradient_t;
 
-/* Items run batch-major (item = b·E + e), so that the gradients of one batch
- * of every emitter are summed before the batch's mean enters the error. */
 static void run_item(void *self, int64_t item, int thread) {
   gradient_t *g = self;
-  int32_t emitters = g->pass->plans.count;
-  hv_pass_trace_batch(g->pass, (int32_t)(item % emitters), (int32_t)(item / emitters),
-                      &g->tallies[thread]);
+  const hv_pass_t *pass = g->pass;
+  hv_pass_trace_batch(pass, pass->emitter_lo + (int32_t)(item / pass->batches),
+                      (int32_t)(item % pass->batches), &g->tallies[thread]);
   hv_grad_tally_t *gt = &g->grads[thread];
   if (gt->path.out_of_memory || gt->chain.out_of_memory) g->out_of_memory = true;
 }
 
-/* Moves the touched entries of `from` into `total` (and `batch`), resetting them. */
-static void drain(const gradient_t *g, hv_grad_tally_t *from, double *total, hv_grad_tally_t *batch) {
+/* Moves the touched entries of `from` into `to`, resetting them. */
+static void drain(const gradient_t *g, hv_grad_tally_t *from, hv_grad_tally_t *to) {
   for (size_t i = 0; i < from->touched_count; ++i) {
     int64_t v = from->touched_list[i];
     for (int p = 0; p < HETINV_PARAM_COUNT; ++p) {
       double *x = &from->grad[(size_t)p * g->voxels + (size_t)v];
-      total[(size_t)p * g->voxels + (size_t)v] += *x;
-      if (batch) hv_grad_add(batch, p, v, *x);
+      hv_grad_add(to, p, v, *x);
       *x = 0.0;
     }
     from->touched[v] = 0;
@@ -53,27 +63,109 @@ static void drain(const gradient_t *g, hv_grad_tally_t *from, double *total, hv_
   from->touched_count = 0;
 }
 
+/* Adds records (as made by finish_emitter) to the totals, in their order. */
+static void add_records(gradient_t *g, const double *rec, size_t count) {
+  size_t at = 0, v3 = g->voxels;
+  while (at < count) {
+    size_t touched = (size_t)rec[at++];
+    for (size_t i = 0; i < touched; ++i, at += 4) {
+      size_t v = (size_t)rec[at];
+      g->total[v] += rec[at + 1];
+      g->total[v3 + v] += rec[at + 2];
+      g->total[2 * v3 + v] += rec[at + 3];
+    }
+    if (g->var == NULL) continue;
+    size_t nonzero = (size_t)rec[at++];
+    for (size_t i = 0; i < nonzero; ++i, at += 2) g->var[(size_t)rec[at]] += rec[at + 1];
+  }
+}
+
+/* Checks that records hold whole emitters' records, `emitters` of them. */
+static bool records_well_formed(const gradient_t *g, const double *rec, size_t count,
+                                int32_t emitters) {
+  size_t at = 0;
+  for (int32_t e = 0; e < emitters; ++e) {
+    if (at >= count || !(rec[at] >= 0.0 && rec[at] <= (double)g->voxels)) return false;
+    size_t touched = (size_t)rec[at++];
+    if ((count - at) / 4 < touched) return false;
+    for (size_t i = 0; i < touched; ++i, at += 4) {
+      if (!(rec[at] >= 0.0 && rec[at] < (double)g->voxels)) return false;
+    }
+    if (g->var == NULL) continue;
+    if (at >= count || !(rec[at] >= 0.0 && rec[at] <= (double)g->k)) return false;
+    size_t nonzero = (size_t)rec[at++];
+    if ((count - at) / 2 < nonzero) return false;
+    for (size_t i = 0; i < nonzero; ++i, at += 2) {
+      if (!(rec[at] >= 0.0 && rec[at] < (double)g->k)) return false;
+    }
+  }
+  return at == count;
+}
+
+/* The current emitter is complete: its record joins `records` and its
+ * accumulators are reset. One rank adds the record at once. */
+static void finish_emitter(gradient_t *g) {
+  hv_grad_tally_t *em = &g->emitter;
+  hv_record_t *rec = &g->records;
+  if (hv_record_reserve(rec, 1 + 4 * em->touched_count)) {
+    hv_record_put(rec, (double)em->touched_count);
+    for (size_t i = 0; i < em->touched_count; ++i) {
+      size_t v = (size_t)em->touched_list[i];
+      hv_record_put(rec, (double)v);
+      for (int p = 0; p < HETINV_PARAM_COUNT; ++p) hv_record_put(rec, em->grad[(size_t)p * g->voxels + v]);
+    }
+  }
+  for (size_t i = 0; i < em->touched_count; ++i) {
+    size_t v = (size_t)em->touched_list[i];
+    for (int p = 0; p < HETINV_PARAM_COUNT; ++p) em->grad[(size_t)p * g->voxels + v] = 0.0;
+    em->touched[v] = 0;
+  }
+  em->touched_count = 0;
+  if (g->var != NULL) {
+    /* Emitters trace independent photons: the variance of the total is
+     * the sum of the emitters' variances. */
+    int32_t batches = g->pass->batches;
+    size_t nonzero = 0;
+    for (size_t i = 0; i < g->k; ++i) {
+      double se = hv_batch_std_error(g->mean_sum[i], g->mean_sq[i], batches);
+      g->mean_sum[i] = se * se; /* reused: the emitter's variance */
+      nonzero += g->mean_sum[i] != 0.0;
+    }
+    if (hv_record_reserve(rec, 1 + 2 * nonzero)) {
+      hv_record_put(rec, (double)nonzero);
+      for (size_t i = 0; i < g->k; ++i) {
+        if (g->mean_sum[i] == 0.0) continue; /* adding +0 to a sum of squares changes nothing */
+        hv_record_put(rec, (double)i);
+        hv_record_put(rec, g->mean_sum[i]);
+      }
+    }
+    memset(g->mean_sum, 0, g->k * sizeof(double));
+    memset(g->mean_sq, 0, g->k * sizeof(double));
+  }
+  if (rec->out_of_memory) g->out_of_memory = true;
+  if (g->pass->ranks == 1 && !rec->out_of_memory) {
+    add_records(g, rec->data, rec->count);
+    rec->count = 0;
+  }
+}
+
 static void reduce_item(void *self, int64_t item, int thread) {
   gradient_t *g = self;
   const hv_pass_t *pass = g->pass;
-  bool with_errors = g->pi_batch != NULL;
-  drain(g, &g->grads[thread], g->total, with_errors ? &g->batch : NULL);
-  int32_t emitters = pass->plans.count;
-  if (!with_errors || (item % emitters) + 1 < emitters) return;
-  /* Batch complete: its mean in π space enters the error estimate. */
-  double n = hv_pass_batch_size(pass, (int32_t)(item / emitters));
-  hetinv_param_map_pullback(g->map, g->batch.grad, g->pi_batch, g->k);
-  for (size_t i = 0; i < g->k; ++i) {
-    double m = g->pi_batch[i] / n;
-    g->mean_sum[i] += m;
-    g->mean_sq[i] += m * m;
+  hv_grad_tally_t *gt = &g->grads[thread];
+  int32_t b = (int32_t)(item % pass->batches);
+  if (g->var != NULL) {
+    /* This batch's mean, in π space, enters its emitter's error. */
+    double n = hv_pass_batch_size(pass, b);
+    hetinv_param_map_pullback(g->map, gt->grad, g->pi_batch, g->k);
+    for (size_t i = 0; i < g->k; ++i) {
+      double m = g->pi_batch[i] / n;
+      g->mean_sum[i] += m;
+      g->mean_sq[i] += m * m;
+    }
   }
-  for (size_t i = 0; i < g->batch.touched_count; ++i) {
-    int64_t v = g->batch.touched_list[i];
-    for (int p = 0; p < HETINV_PARAM_COUNT; ++p) g->batch.grad[(size_t)p * g->voxels + (size_t)v] = 0.0;
-    g->batch.touched[v] = 0;
-  }
-  g->batch.touched_count = 0;
+  drain(g, gt, &g->emitter);
+  if (b + 1 == pass->batches) finish_emitter(g);
 }
 
 static bool alloc_grad_tally(const hetinv_context_t *ctx, size_t voxels, hv_grad_tally_t *gt) {
@@ -95,13 +187,33 @@ static void free_grad_tally(const hetinv_context_t *ctx, hv_grad_tally_t *gt) {
 
 static void release(const hetinv_context_t *ctx, gradient_t *g, int threads) {
   for (int t = 0; g->grads && t < threads; ++t) free_grad_tally(ctx, &g->grads[t]);
-  free_grad_tally(ctx, &g->batch);
+  free_grad_tally(ctx, &g->emitter);
   hv_free(ctx, g->tallies);
   hv_free(ctx, g->grads);
   hv_free(ctx, g->total);
   hv_free(ctx, g->pi_batch);
   hv_free(ctx, g->mean_sum);
   hv_free(ctx, g->mean_sq);
+  hv_free(ctx, g->var);
+  hv_record_release(&g->records);
+}
+
+/* Several ranks: every rank's records, in emitter order, added on every
+ * rank. Collective: a rank that failed takes part with its code. */
+static hetinv_result_t share(gradient_t *g, hetinv_result_t status, const char *func) {
+  const hetinv_context_t *ctx = g->pass->ctx;
+  double *all = NULL;
+  size_t all_count = 0;
+  hetinv_result_t r = hv_comm_allgather(ctx, g->records.data, g->records.count, status, func, &all,
+                                        &all_count);
+  if (r == HETINV_SUCCESS && !records_well_formed(g, all, all_count, g->pass->plans.count)) {
+    r = hv_fail(ctx, HETINV_ERROR_INTERNAL, func,
+                "the ranks' partial gradients (%zu doubles) are not %d emitters' records", all_count,
+                (int)g->pass->plans.count);
+  }
+  if (r == HETINV_SUCCESS) add_records(g, all, all_count);
+  hv_free(ctx, all);
+  return r;
 }
 
 /* The gradient pass proper, on a pass already begun. */
@@ -110,17 +222,19 @@ static hetinv_result_t run_gradient(const hv_pass_t *pass, const hetinv_param_ma
                                     const char *func) {
   const hetinv_context_t *ctx = pass->ctx;
   gradient_t g = {.pass = pass, .map = map, .k = hetinv_param_map_size(map)};
+  g.records.ctx = ctx;
   g.voxels = (size_t)pass->grid.n[0] * (size_t)pass->grid.n[1] * (size_t)pass->grid.n[2];
   int threads = pass->threads;
   g.tallies = hv_calloc(ctx, (size_t)threads, sizeof *g.tallies);
   g.grads = hv_calloc(ctx, (size_t)threads, sizeof *g.grads);
   g.total = hv_calloc(ctx, 3 * g.voxels, sizeof(double));
-  bool ok = g.tallies && g.grads && g.total;
+  bool ok = g.tallies && g.grads && g.total && alloc_grad_tally(ctx, g.voxels, &g.emitter);
   if (ok && grad_se) {
     g.pi_batch = hv_calloc(ctx, g.k, sizeof(double));
     g.mean_sum = hv_calloc(ctx, g.k, sizeof(double));
     g.mean_sq = hv_calloc(ctx, g.k, sizeof(double));
-    ok = g.pi_batch && g.mean_sum && g.mean_sq && alloc_grad_tally(ctx, g.voxels, &g.batch);
+    g.var = hv_calloc(ctx, g.k, sizeof(double));
+    ok = g.pi_batch && g.mean_sum && g.mean_sq && g.var;
   }
   for (int t = 0; ok && t < threads; ++t) {
     ok = alloc_grad_tally(ctx, g.voxels, &g.grads[t]);
@@ -128,22 +242,24 @@ static hetinv_result_t run_gradient(const hv_pass_t *pass, const hetinv_param_ma
     g.tallies[t].grad = &g.grads[t];
   }
   if (ok) {
-    hv_batch_loop_t loop = {(int64_t)pass->plans.count * pass->batches, threads, &g, run_item,
-                            reduce_item};
+    hv_batch_loop_t loop = {(int64_t)(pass->emitter_hi - pass->emitter_lo) * pass->batches,
+                            threads, &g, run_item, reduce_item};
     hv_batches_run(&loop);
     ok = !g.out_of_memory;
   }
-  if (ok) {
+  hetinv_result_t r = HETINV_SUCCESS;
+  if (!ok) r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the gradient buffers");
+  if (pass->ranks > 1) r = share(&g, r, func);
+  if (r == HETINV_SUCCESS) {
     hetinv_param_map_pullback(map, g.total, grad, g.k);
     double n = (double)pass->photons;
     for (size_t i = 0; i < g.k; ++i) {
       grad[i] /= n;
-      if (grad_se) grad_se[i] = hv_batch_std_error(g.mean_sum[i], g.mean_sq[i], pass->batches);
+      if (grad_se) grad_se[i] = sqrt(g.var[i]);
     }
   }
   release(ctx, &g, threads);
-  if (!ok) return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the gradient buffers");
-  return HETINV_SUCCESS;
+  return r;
 }
 
 /* Checks the map against the medium and the output. */

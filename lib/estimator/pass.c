@@ -4,6 +4,7 @@
 #include <omp.h>
 #endif
 
+#include "core/comm.h"
 #include "core/context_internal.h"
 #include "core/error.h"
 #include "estimator/batches.h"
@@ -79,6 +80,12 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
   pass->batches = (int32_t)param[HETINV_ESTIMATOR_BATCHES];
   if ((uint64_t)pass->batches > pass->photons) pass->batches = (int32_t)pass->photons;
   pass->threads = ctx->thread_count;
+  pass->rank = ctx->rank;
+  pass->ranks = ctx->rank_count;
+  int64_t lo, hi;
+  hv_comm_block(pass->plans.count, pass->rank, pass->ranks, &lo, &hi);
+  pass->emitter_lo = (int32_t)lo;
+  pass->emitter_hi = (int32_t)hi;
   return HETINV_SUCCESS;
 }
 

@@ -17,6 +17,10 @@ typedef struct hv_pass {
   int32_t batches;
   int threads;
   double start_seconds;
+  /* Distribution (core/comm.h): this rank traces emitters [emitter_lo,
+   * emitter_hi) of plans.count; with ranks == 1 that is all of them. */
+  int32_t rank, ranks;
+  int32_t emitter_lo, emitter_hi;
 } hv_pass_t;
 
 /* Validates (estimator, medium, set, count) and builds the pass; on failure

@@ -1,18 +1,21 @@
 #!/bin/sh
 # Builds libhetinv without sanitizers, installs it into a temporary prefix,
 # then builds and runs tests/install/consumer.c twice: with pkg-config and
-# with find_package(hetinv).
-#   usage: run.sh <source dir> <scratch dir>
+# with find_package(hetinv). Further arguments go to the library's cmake
+# configuration; with -DHETINV_WITH_MPI=ON it also builds and runs
+# consumer_mpi.c (hetinv/mpi.h) both ways.
+#   usage: run.sh <source dir> <scratch dir> [cmake options...]
 set -eu
 src=$1
 work=$2
+shift 2
 rm -rf "$work"
 mkdir -p "$work"
 prefix=$work/prefix
 
 cmake -S "$src" -B "$work/build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX="$prefix" \
   -DHETINV_BUILD_TESTS=OFF -DHETINV_BUILD_EXAMPLES=OFF -DHETINV_BUILD_BENCH=OFF \
-  -DHETINV_BUILD_DOCS=OFF >"$work/configure.log"
+  -DHETINV_BUILD_DOCS=OFF "$@" >"$work/configure.log"
 cmake --build "$work/build" -j2 >"$work/build.log"
 cmake --install "$work/build" >"$work/install.log"
 libdir=$(cd "$prefix" && ls -d lib* | head -n 1)
@@ -29,8 +32,23 @@ cmake -S "$src/tests/install" -B "$work/consumer" -DCMAKE_PREFIX_PATH="$prefix" 
 cmake --build "$work/consumer" >>"$work/consumer.log"
 LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer/consumer"
 
+if [ -f "$prefix/include/hetinv/mpi.h" ]; then
+  echo "== MPI consumer (pkg-config, find_package)"
+  # shellcheck disable=SC2046 # word splitting of the flags is intended
+  cc -std=c11 -Wall -Werror -o "$work/consumer-mpi-pkgconfig" "$src/tests/install/consumer_mpi.c" \
+    $(pkg-config --cflags --libs hetinv)
+  LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer-mpi-pkgconfig"
+  LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer/consumer_mpi"
+fi
+
 echo "== installed headers"
 if find "$prefix/include" -name '*_internal.h' | grep -q .; then
   echo "internal headers were installed"; exit 1
+fi
+# hetinv/mpi.h is installed exactly when the library was built with MPI.
+if pkg-config --print-requires hetinv | grep -q ompi-c; then with_mpi=yes; else with_mpi=no; fi
+if [ -f "$prefix/include/hetinv/mpi.h" ]; then has_header=yes; else has_header=no; fi
+if [ "$with_mpi" != "$has_header" ]; then
+  echo "hetinv/mpi.h installed: $has_header, but MPI in hetinv.pc: $with_mpi"; exit 1
 fi
 echo "install check passed"

@@ -27,6 +27,21 @@ static void initialiser_sets_threads_and_seed(void **state) {
   hetinv_context_destroy(&ctx);
 }
 
+/* Without MPI running (this test never initialises it) a context is
+ * rank 0 of 1 in either build; NULL gives the same. */
+static void context_without_mpi_is_rank_zero_of_one(void **state) {
+  (void)state;
+  hetinv_context_t *ctx = NULL;
+  assert_ok(hetinv_context_create(NULL, &ctx));
+  assert_int_equal(hetinv_context_rank(ctx), 0);
+  assert_int_equal(hetinv_context_rank_count(ctx), 1);
+  assert_int_equal(hetinv_context_rank(NULL), 0);
+  assert_int_equal(hetinv_context_rank_count(NULL), 1);
+  int has = hetinv_build_has_mpi();
+  assert_true(has == 0 || has == 1);
+  hetinv_context_destroy(&ctx);
+}
+
 static void destroy_accepts_null(void **state) {
   (void)state;
   hetinv_context_destroy(NULL);
@@ -199,6 +214,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(default_context_has_threads_and_seed_zero),
       cmocka_unit_test(initialiser_sets_threads_and_seed),
+      cmocka_unit_test(context_without_mpi_is_rank_zero_of_one),
       cmocka_unit_test(destroy_accepts_null),
       cmocka_unit_test(null_output_is_rejected),
       cmocka_unit_test(too_small_init_size_is_rejected),

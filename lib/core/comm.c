@@ -1,0 +1,194 @@
+#include "core/comm.h"
+
+#include <limits.h>
+
+#include "core/alloc.h"
+#include "core/context_internal.h"
+#include "core/error.h"
+
+#ifdef HETINV_WITH_MPI
+#include "hetinv/mpi.h"
+#endif
+
+HETINV_API int32_t hetinv_context_rank(const hetinv_context_t *ctx) { return ctx ? ctx->rank : 0; }
+
+HETINV_API int32_t hetinv_context_rank_count(const hetinv_context_t *ctx) {
+  return ctx ? ctx->rank_count : 1;
+}
+
+HETINV_API int hetinv_build_has_mpi(void) {
+#ifdef HETINV_WITH_MPI
+  return 1;
+#else
+  return 0;
+#endif
+}
+
+#ifndef HETINV_WITH_MPI
+
+hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx, const char *func) {
+  (void)func;
+  ctx->rank = 0;
+  ctx->rank_count = 1;
+  return HETINV_SUCCESS;
+}
+
+void hv_comm_context_release(hetinv_context_t *ctx) { (void)ctx; }
+
+hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
+                                  hetinv_result_t status, const char *func, double **all,
+                                  size_t *all_count) {
+  (void)data;
+  (void)count;
+  *all = NULL;
+  *all_count = 0;
+  if (status != HETINV_SUCCESS) return status;
+  return hv_fail(ctx, HETINV_ERROR_INTERNAL, func, "a collective was called in a build without MPI");
+}
+
+#else /* HETINV_WITH_MPI */
+
+/* MPI may be used: initialised and not yet finalised. */
+static bool mpi_usable(void) {
+  int initialised = 0, finalised = 0;
+  MPI_Initialized(&initialised);
+  MPI_Finalized(&finalised);
+  return initialised && !finalised;
+}
+
+static hetinv_result_t mpi_fail(const hetinv_context_t *ctx, const char *func, const char *call,
+                                int err) {
+  char text[MPI_MAX_ERROR_STRING];
+  int len = 0;
+  if (MPI_Error_string(err, text, &len) != MPI_SUCCESS) len = 0;
+  text[len < MPI_MAX_ERROR_STRING ? len : MPI_MAX_ERROR_STRING - 1] = '\0';
+  return hv_fail(ctx, HETINV_ERROR_INTERNAL, func, "%s failed with MPI error %d (%s)", call, err,
+                 len > 0 ? text : "no description");
+}
+
+/* Dups comm into ctx, replacing (and freeing) the context's previous dup. */
+static hetinv_result_t attach(hetinv_context_t *ctx, MPI_Comm comm, const char *func) {
+  MPI_Comm dup = MPI_COMM_NULL;
+  int err = MPI_Comm_dup(comm, &dup);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, func, "MPI_Comm_dup", err);
+  /* Failures of the library's own calls come back as codes, not aborts. */
+  MPI_Comm_set_errhandler(dup, MPI_ERRORS_RETURN);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(dup, &rank);
+  MPI_Comm_size(dup, &size);
+  hv_comm_context_release(ctx);
+  ctx->comm = dup;
+  ctx->rank = rank;
+  ctx->rank_count = size;
+  return HETINV_SUCCESS;
+}
+
+hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx, const char *func) {
+  ctx->comm = MPI_COMM_NULL;
+  ctx->rank = 0;
+  ctx->rank_count = 1;
+  if (!mpi_usable()) return HETINV_SUCCESS; /* serial: rank 0 of 1 */
+  return attach(ctx, MPI_COMM_WORLD, func);
+}
+
+void hv_comm_context_release(hetinv_context_t *ctx) {
+  if (ctx->comm != MPI_COMM_NULL && mpi_usable()) MPI_Comm_free(&ctx->comm);
+  ctx->comm = MPI_COMM_NULL;
+  ctx->rank = 0;
+  ctx->rank_count = 1;
+}
+
+HETINV_API hetinv_result_t hetinv_context_set_mpi_comm(hetinv_context_t *ctx, MPI_Comm comm) {
+  HV_CHECK_NULL(NULL, ctx);
+  if (!mpi_usable()) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE,
+                   "MPI is not initialised (or already finalised); call MPI_Init_thread first");
+  }
+  if (comm == MPI_COMM_NULL) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "comm is MPI_COMM_NULL");
+  }
+  int inter = 0;
+  int err = MPI_Comm_test_inter(comm, &inter);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, __func__, "MPI_Comm_test_inter", err);
+  if (inter) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "comm is an intercommunicator; an intracommunicator is needed");
+  }
+  return attach(ctx, comm, __func__);
+}
+
+/* Collective: the status of the first rank (in rank order) that failed,
+ * HETINV_SUCCESS if none did. Ranks other than the failing one record a
+ * message naming it; the failing rank keeps its own. */
+static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status, const char *func) {
+  int ranks = ctx->rank_count;
+  int mine = status != HETINV_SUCCESS ? ctx->rank : ranks, first = ranks;
+  int err = MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, ctx->comm);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, func, "MPI_Allreduce", err);
+  if (first == ranks) return HETINV_SUCCESS;
+  int code = status;
+  err = MPI_Bcast(&code, 1, MPI_INT, first, ctx->comm);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, func, "MPI_Bcast", err);
+  if (status != HETINV_SUCCESS) return status;
+  return hv_fail(ctx, code, func, "rank %d of %d failed with %s (its own message says why)", first,
+                 ranks, hetinv_result_name(code));
+}
+
+hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
+                                  hetinv_result_t status, const char *func, double **all,
+                                  size_t *all_count) {
+  *all = NULL;
+  *all_count = 0;
+  int ranks = ctx->rank_count;
+  int64_t *sizes = hv_calloc(ctx, (size_t)ranks, sizeof(int64_t));
+  int *counts = hv_calloc(ctx, (size_t)ranks, sizeof(int));
+  int *displs = hv_calloc(ctx, (size_t)ranks, sizeof(int));
+  if (status == HETINV_SUCCESS && (sizes == NULL || counts == NULL || displs == NULL)) {
+    status = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the counts of %d ranks",
+                     ranks);
+  }
+  hetinv_result_t r = agree(ctx, status, func);
+  int64_t mine = (int64_t)count, total = 0;
+  if (r == HETINV_SUCCESS) {
+    int err = MPI_Allgather(&mine, 1, MPI_INT64_T, sizes, 1, MPI_INT64_T, ctx->comm);
+    if (err != MPI_SUCCESS) r = mpi_fail(ctx, func, "MPI_Allgather", err);
+  }
+  for (int k = 0; r == HETINV_SUCCESS && k < ranks; ++k) total += sizes[k];
+  if (r == HETINV_SUCCESS && total > INT_MAX) {
+    /* The same on every rank: all stop here. */
+    r = hv_fail(ctx, HETINV_ERROR_UNSUPPORTED, func,
+                "the ranks' partial results hold %lld doubles; MPI_Allgatherv takes at most %d",
+                (long long)total, INT_MAX);
+  }
+  double *buf = NULL;
+  if (r == HETINV_SUCCESS && total > 0) {
+    for (int k = 0, at = 0; k < ranks; ++k) {
+      counts[k] = (int)sizes[k];
+      displs[k] = at;
+      at += counts[k];
+    }
+    buf = hv_calloc(ctx, (size_t)total, sizeof(double));
+    hetinv_result_t mine_r = HETINV_SUCCESS;
+    if (buf == NULL) {
+      mine_r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+                       "cannot allocate %lld doubles for the gathered results", (long long)total);
+    }
+    r = agree(ctx, mine_r, func);
+  }
+  if (r == HETINV_SUCCESS && total > 0) {
+    int err = MPI_Allgatherv(data, (int)count, MPI_DOUBLE, buf, counts, displs, MPI_DOUBLE, ctx->comm);
+    if (err != MPI_SUCCESS) r = mpi_fail(ctx, func, "MPI_Allgatherv", err);
+  }
+  hv_free(ctx, sizes);
+  hv_free(ctx, counts);
+  hv_free(ctx, displs);
+  if (r != HETINV_SUCCESS) {
+    hv_free(ctx, buf);
+    return r;
+  }
+  *all = buf;
+  *all_count = (size_t)total;
+  return HETINV_SUCCESS;
+}
+
+#endif /* HETINV_WITH_MPI */

@@ -1,0 +1,39 @@
+/* The context's communicator: which rank this process is, and the few
+ * collectives the estimator needs. Without MPI (or with MPI not initialised
+ * when the context was made) every context is rank 0 of 1 and nothing here
+ * communicates. */
+#ifndef HV_COMM_H
+#define HV_COMM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hetinv/context.h"
+#include "hetinv/result.h"
+
+/* Called by hetinv_context_create on the new context: attaches a dup of
+ * MPI_COMM_WORLD when MPI is initialised (MPI build only). */
+hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx, const char *func);
+/* Called by hetinv_context_destroy: frees the context's dup, if any. */
+void hv_comm_context_release(hetinv_context_t *ctx);
+
+/* Items [*lo, *hi) of n that rank `rank` of `ranks` owns: contiguous blocks
+ * in rank order, so that concatenating every rank's block in rank order
+ * gives the items in order. */
+static inline void hv_comm_block(int64_t n, int32_t rank, int32_t ranks, int64_t *lo, int64_t *hi) {
+  *lo = n * rank / ranks;
+  *hi = n * (rank + 1) / ranks;
+}
+
+/* Collective over the context's communicator (only call with rank_count > 1).
+ * Every rank contributes `count` doubles and its status so far. If every
+ * status is HETINV_SUCCESS, *all receives the concatenation of every rank's
+ * doubles in rank order (allocated with the context's hooks; the caller
+ * frees it) and *all_count its length. Otherwise every rank returns the code
+ * of the first failing rank: a failing rank keeps its own message, the
+ * others record one naming the failing rank. */
+hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
+                                  hetinv_result_t status, const char *func, double **all,
+                                  size_t *all_count);
+
+#endif
