@@ -25,6 +25,7 @@ OPTIMIZER_PARAMS = {"method": 0, "decay": 1, "epsilon": 2, "learning_rate": 3, "
 
 STOP_NONE, STOP_COMPLETED, STOP_TIME_BUDGET, STOP_CALLBACK = range(4)
 STOP_REASONS = {0: "none", 1: "completed", 2: "time_budget", 3: "callback"}
+STOP_REASONS_INV = {v: k for k, v in STOP_REASONS.items()}
 
 
 def lookup(value, table, what):

@@ -7,7 +7,7 @@ from . import _arrays
 from ._errors import HetinvError, check
 from ._handle import Handle
 from ._lib import PROGRESS_FN, lib
-from ._names import METHODS, OPTIMIZER_PARAMS, STOP_REASONS, lookup
+from ._names import METHODS, OPTIMIZER_PARAMS, STOP_REASONS, STOP_REASONS_INV, lookup  # noqa: F401
 from .medium import Medium, param_id
 
 #: What the progress callable receives after every iteration (a copy of
