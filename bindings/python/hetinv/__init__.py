@@ -6,7 +6,7 @@ path), else ctypes.util.find_library("hetinv"), else "libhetinv.so.0".
 Arrays come back as numpy arrays when numpy is importable, else as
 array.array; any sequence of numbers is accepted as input.
 """
-from ._lib import lib as _lib, path as library_path
+from ._lib import lib as _clib, path as library_path
 from ._errors import (
     CorruptFileError,
     FileIOError,
@@ -44,14 +44,14 @@ __version__ = "0.1.0"
 
 def version():
     """Version of the loaded library, "MAJOR.MINOR.PATCH"."""
-    return _lib.version_string().decode()
+    return _clib.version_string().decode()
 
 
 def version_number():
     """Version of the loaded library as MAJOR·10000 + MINOR·100 + PATCH."""
-    return _lib.version_number()
+    return _clib.version_number()
 
 
 def result_name(code):
     """Static name of a result code, e.g. "HETINV_ERROR_INVALID_ARGUMENT"."""
-    return _lib.result_name(code).decode()
+    return _clib.result_name(code).decode()
