@@ -7,7 +7,7 @@ set -eu
 mode=${1:-demo}
 pkgs="build-essential cmake pkg-config libopenexr-dev librandom123-dev libpng-dev libcjson-dev"
 if [ "$mode" = test ]; then
-  pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils"
+  pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils python3"
 fi
 
 missing=""

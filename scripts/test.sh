@@ -2,7 +2,8 @@
 # Installs what is missing, then builds and runs the whole test suite:
 #  1. every test under AddressSanitizer + UndefinedBehaviorSanitizer, warnings
 #     as errors (build-test/); Monte Carlo validation tests at reduced size;
-#  2. the Monte Carlo validation tests at full size in an optimised build
+#  2. the Monte Carlo validation tests at full size, and the Python binding
+#     tests (which cannot load a sanitizer-built library), in an optimised build
 #     (build-release/);
 #  3. the libFuzzer harnesses, built with clang, each for a short smoke run
 #     (build-fuzz/).
@@ -41,10 +42,10 @@ cmake -S . -B build-test -DCMAKE_BUILD_TYPE=Debug -DHETINV_SANITIZE=ON -DHETINV_
 cmake --build build-test -j"$jobs"
 run_suite build-test
 
-echo "== optimised build: validation at full size"
+echo "== optimised build: validation at full size, Python binding"
 cmake -S . -B build-release -DCMAKE_BUILD_TYPE=Release -DHETINV_WERROR=ON >/dev/null
 cmake --build build-release -j"$jobs"
-run_suite build-release -L validation
+run_suite build-release -L "validation|python"
 
 echo "== fuzz build (clang, libFuzzer)"
 CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DHETINV_BUILD_FUZZERS=ON \
