@@ -69,8 +69,8 @@ class Measurements(Handle):
         """mask: value_count truthy/falsy items (0 = left out of the loss)."""
         if not hasattr(mask, "dtype") and not isinstance(mask, (bytes, bytearray)):
             mask = [1 if m else 0 for m in mask]
-        elif hasattr(mask, "dtype") and mask.dtype == bool:
-            mask = mask.astype("uint8")
+        elif hasattr(mask, "dtype"):
+            mask = (mask != 0).astype("uint8")  # any non-zero means "used", as in C
         m = _arrays.to_c(mask, "B", name="mask")
         check(lib.measurements_set_mask(self._ptr, m.ptr, m.count))
         return self

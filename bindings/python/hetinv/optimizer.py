@@ -28,7 +28,7 @@ def _mask_bytes(mask, name):
     if mask is None:
         return _arrays.to_c(None)
     if hasattr(mask, "dtype"):
-        mask = mask.astype("uint8")
+        mask = (mask != 0).astype("uint8")  # 256 must not wrap to 0
     else:
         mask = [1 if m else 0 for m in mask]
     return _arrays.to_c(mask, "B", name=name)
