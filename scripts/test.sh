@@ -2,7 +2,8 @@
 # Installs what is missing, then builds and runs the whole test suite:
 #  1. every test under AddressSanitizer + UndefinedBehaviorSanitizer, warnings
 #     as errors (build-test/); Monte Carlo validation tests at reduced size;
-#  2. the Monte Carlo validation tests at full size in an optimised build
+#  2. the Monte Carlo validation tests at full size, and the Python binding
+#     tests (which cannot load a sanitizer-built library), in an optimised build
 #     (build-release/);
 #  3. the MPI variant (-DHETINV_WITH_MPI=ON, optimised, build-mpi/): its
 #     unit tests and the mpi tests, which run small renders and gradients
@@ -46,10 +47,10 @@ cmake -S . -B build-test -DCMAKE_BUILD_TYPE=Debug -DHETINV_SANITIZE=ON -DHETINV_
 cmake --build build-test -j"$jobs"
 run_suite build-test
 
-echo "== optimised build: validation at full size"
+echo "== optimised build: validation at full size, Python binding"
 cmake -S . -B build-release -DCMAKE_BUILD_TYPE=Release -DHETINV_WERROR=ON >/dev/null
 cmake --build build-release -j"$jobs"
-run_suite build-release -L validation
+run_suite build-release -L "validation|python"
 
 echo "== MPI build: unit tests and rank-count independence"
 cmake -S . -B build-mpi -DCMAKE_BUILD_TYPE=Release -DHETINV_WITH_MPI=ON -DHETINV_WERROR=ON \

@@ -1,0 +1,112 @@
+"""Arrays in and out: numpy when it is importable, array.array otherwise.
+
+Inputs may be any sequence of numbers, an array.array or a numpy array (of
+any shape: it is read in C order). Outputs are numpy arrays when numpy is
+available and enabled, else array.array('d') (or 'f' / 'B'). use_numpy(False)
+switches numpy off, e.g. to test the pure-Python path.
+"""
+import array
+import ctypes
+
+try:
+    import numpy as _np
+except ImportError:  # numpy is optional
+    _np = None
+
+_enabled = _np is not None
+
+_CTYPE = {"d": ctypes.c_double, "f": ctypes.c_float, "B": ctypes.c_uint8}
+_NPTYPE = {"d": "float64", "f": "float32", "B": "uint8"}
+
+
+def numpy_available():
+    """True if numpy is importable (whether or not it is enabled)."""
+    return _np is not None
+
+
+def use_numpy(flag=True):
+    """Return numpy arrays (True, the default when numpy is importable) or
+    array.array (False). Returns the previous setting."""
+    global _enabled
+    previous = _enabled
+    if flag and _np is None:
+        raise ImportError("numpy is not importable")
+    _enabled = bool(flag)
+    return previous
+
+
+def numpy_enabled():
+    return _enabled
+
+
+class CArray:
+    """A contiguous C array made from a Python value, with what keeps its
+    memory alive. .ptr is a POINTER(ctype), .count the number of items."""
+
+    __slots__ = ("ptr", "count", "_keep")
+
+    def __init__(self, ptr, count, keep):
+        self.ptr, self.count, self._keep = ptr, count, keep
+
+
+def to_c(values, typecode="d", count=None, name="values"):
+    """C array of `typecode` items from `values` (None gives a NULL pointer).
+    `count`, when given, is the number of items required."""
+    ctype = _CTYPE[typecode]
+    if values is None:
+        return CArray(None, 0, None)
+    if _np is not None and isinstance(values, _np.ndarray):
+        arr = _np.ascontiguousarray(values, dtype=_NPTYPE[typecode]).reshape(-1)
+        n = arr.size
+        ptr = arr.ctypes.data_as(ctypes.POINTER(ctype))
+        keep = arr
+    else:
+        if isinstance(values, array.array) and values.typecode == typecode:
+            arr = values
+        else:
+            if isinstance(values, (bytes, bytearray)) and typecode != "B":
+                raise TypeError("%s: expected numbers, got %s" % (name, type(values).__name__))
+            arr = array.array(typecode, values)
+        n = len(arr)
+        if n == 0:
+            buf = (ctype * 1)()
+        else:
+            addr, _ = arr.buffer_info()
+            buf = (ctype * n).from_address(addr)
+        ptr = ctypes.cast(buf, ctypes.POINTER(ctype))
+        keep = (arr, buf)
+    if count is not None and n != count:
+        raise ValueError("%s: expected %d values, got %d" % (name, count, n))
+    return CArray(ptr, n, keep)
+
+
+def empty(count, typecode="d"):
+    """A zeroed output array of `count` items and a pointer to its data."""
+    ctype = _CTYPE[typecode]
+    if _enabled:
+        arr = _np.zeros(count, dtype=_NPTYPE[typecode])
+        return arr, arr.ctypes.data_as(ctypes.POINTER(ctype))
+    arr = array.array(typecode, bytes(ctypes.sizeof(ctype) * count))
+    if count == 0:
+        return arr, ctypes.cast((ctype * 1)(), ctypes.POINTER(ctype))
+    return arr, ctypes.cast((ctype * count).from_address(arr.buffer_info()[0]),
+                            ctypes.POINTER(ctype))
+
+
+def copy_from(ptr, count, typecode="d"):
+    """A new output array holding a copy of `count` items at `ptr`."""
+    out, dst = empty(count, typecode)
+    if count:
+        ctypes.memmove(dst, ptr, count * ctypes.sizeof(_CTYPE[typecode]))
+    return out
+
+
+def fixed(values, n, typecode, name):
+    """A ctypes array of exactly n items (a vector argument such as an origin)."""
+    if values is None:
+        return None
+    vals = list(values.tolist() if hasattr(values, "tolist") else values)
+    if len(vals) != n:
+        raise ValueError("%s: expected %d values, got %d" % (name, n, len(vals)))
+    ctype = ctypes.c_int32 if typecode == "i" else _CTYPE[typecode]
+    return (ctype * n)(*vals)

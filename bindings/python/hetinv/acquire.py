@@ -1,0 +1,26 @@
+"""Simulated acquisition: the sensor noise model (acquire.h). The volume
+generators are Medium.fill_gaussian_mixture and Medium.fill_smoke."""
+import ctypes
+from collections import namedtuple
+
+from . import _arrays
+from ._errors import check
+from ._lib import lib
+from ._structs import NoiseModel
+
+Noisy = namedtuple("Noisy", "values std_errors exposure")
+
+
+def apply_noise(ctx, clean, model=None, **fields):
+    """What a camera records for `clean` values under the Hasinoff affine
+    noise model: Noisy(values, std_errors, exposure). model: a NoiseModel,
+    or its fields as keywords over the library defaults (e.g. seed=3,
+    read_noise=2.0)."""
+    model = model if model is not None else NoiseModel(**fields)
+    c = _arrays.to_c(clean, "d", name="clean")
+    noisy, pn = _arrays.empty(c.count)
+    errors, pe = _arrays.empty(c.count)
+    exposure = ctypes.c_double()
+    check(lib.noise_apply(ctx._ptr, ctypes.byref(model), c.ptr, pn, pe, c.count,
+                          ctypes.byref(exposure)))
+    return Noisy(noisy, errors, exposure.value)

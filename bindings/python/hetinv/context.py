@@ -1,0 +1,39 @@
+"""The context: base seed, thread count, error messages."""
+import ctypes
+
+from ._errors import check
+from ._handle import Handle
+from ._lib import lib
+from ._structs import ContextInit
+
+
+class Context(Handle):
+    """hetinv_context_t. Every other object is made from a context, which
+    keeps them in order: close() first closes everything made from it.
+
+        with hetinv.Context(seed=7, threads=2) as ctx:
+            ...
+    """
+
+    _destroy_name = "context_destroy"
+
+    def __init__(self, seed=0, threads=0):
+        init = ContextInit(seed=seed, thread_count=threads)
+        h = ctypes.c_void_p()
+        check(lib.context_create(ctypes.byref(init), ctypes.byref(h)))
+        super().__init__(h)
+
+    @property
+    def seed(self):
+        return lib.context_seed(self._ptr)
+
+    @property
+    def thread_count(self):
+        return lib.context_thread_count(self._ptr)
+
+    def last_error_message(self):
+        """Message of this context's last failure on the calling thread ("" if none)."""
+        return lib.context_last_error_message(self._ptr).decode("utf-8", "replace")
+
+    def last_error_code(self):
+        return lib.context_last_error_code(self._ptr)

@@ -1,0 +1,91 @@
+"""The Monte Carlo estimator: render, gradient, loss gradient, statistics (estimator.h)."""
+import ctypes
+from collections import namedtuple
+
+from . import _arrays
+from ._errors import check
+from ._handle import Handle
+from ._lib import lib
+from ._names import ESTIMATOR_PARAMS, lookup
+from ._structs import RenderStats
+
+Render = namedtuple("Render", "values std_errors ballistic")
+Gradient = namedtuple("Gradient", "grad std_errors")
+LossGradient = namedtuple("LossGradient", "loss grad rendered")
+
+
+def estimator_param_bounds(param):
+    """(lo, hi) of an estimator tunable ("photons", ... or its id)."""
+    lo, hi = ctypes.c_double(), ctypes.c_double()
+    check(lib.estimator_param_bounds(lookup(param, ESTIMATOR_PARAMS, "estimator parameter"),
+                                     ctypes.byref(lo), ctypes.byref(hi)))
+    return lo.value, hi.value
+
+
+class Estimator(Handle):
+    """hetinv_estimator_t. Tunables as keywords or via set_param/get_param:
+    photons, batches, roulette_weight, roulette_survival, min_scattering,
+    max_scattering, stream, epoch.
+
+        est = hetinv.Estimator(ctx, photons=20000)
+        r = est.render(medium, measurements)   # r.values, r.std_errors, r.ballistic
+    """
+
+    _destroy_name = "estimator_destroy"
+    param_bounds = staticmethod(estimator_param_bounds)
+
+    def __init__(self, ctx, **params):
+        h = ctypes.c_void_p()
+        check(lib.estimator_create(ctx._ptr, ctypes.byref(h)))
+        super().__init__(h, [ctx])
+        self.context = ctx
+        for name, value in params.items():
+            self.set_param(name, value)
+
+    def set_param(self, param, value):
+        check(lib.estimator_set_param(self._ptr, lookup(param, ESTIMATOR_PARAMS,
+                                                        "estimator parameter"), value))
+        return self
+
+    def get_param(self, param):
+        v = ctypes.c_double()
+        check(lib.estimator_get_param(self._ptr, lookup(param, ESTIMATOR_PARAMS,
+                                                        "estimator parameter"), ctypes.byref(v)))
+        return v.value
+
+    def render(self, medium, measurements):
+        """Render every value of the set: Render(values, std_errors, ballistic)."""
+        n = measurements.value_count
+        values, pv = _arrays.empty(n)
+        errors, pe = _arrays.empty(n)
+        ballistic, pb = _arrays.empty(n)
+        check(lib.estimator_render(self._ptr, medium._ptr, measurements._ptr, pv, pe, pb, n))
+        return Render(values, errors, ballistic)
+
+    def gradient(self, medium, measurements, cotangent, param_map):
+        """Σ_n cotangent[n]·∂I_n/∂π: Gradient(grad, std_errors)."""
+        c = _arrays.to_c(cotangent, "d", measurements.value_count, "cotangent")
+        k = param_map.size
+        grad, pg = _arrays.empty(k)
+        errors, pe = _arrays.empty(k)
+        check(lib.estimator_gradient(self._ptr, medium._ptr, measurements._ptr, c.ptr, c.count,
+                                     param_map._ptr, pg, pe, k))
+        return Gradient(grad, errors)
+
+    def loss_gradient(self, medium, measurements, param_map):
+        """The loss of Eq. (9) against the set's measured values, its
+        gradient with respect to π, and the rendered values."""
+        k, n = param_map.size, measurements.value_count
+        loss = ctypes.c_double()
+        rendered, pr = _arrays.empty(n)
+        grad, pg = _arrays.empty(k)
+        check(lib.estimator_loss_gradient(self._ptr, medium._ptr, measurements._ptr,
+                                          param_map._ptr, ctypes.byref(loss), pr, pg, k))
+        return LossGradient(loss.value, grad, rendered)
+
+    def stats(self):
+        """RenderStats of the last render (photons, seconds, specular,
+        absorbed, escaped[6], ...)."""
+        s = RenderStats()
+        check(lib.estimator_get_stats(self._ptr, ctypes.byref(s)))
+        return s

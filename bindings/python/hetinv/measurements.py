@@ -1,0 +1,97 @@
+"""Measurement sets: rows of (emitter, sensor, pathlength), their measured
+values, weights and mask (measurement.h)."""
+import ctypes
+
+from . import _arrays
+from ._errors import check
+from ._handle import Handle
+from ._lib import lib
+
+
+class Measurements(Handle):
+    """hetinv_measurements_t. The C set borrows its rows' emitters, sensors
+    and pathlengths: this object keeps them alive, and closing one of them
+    closes the set first."""
+
+    _destroy_name = "measurements_destroy"
+
+    def __init__(self, ctx):
+        h = ctypes.c_void_p()
+        check(lib.measurements_create(ctx._ptr, ctypes.byref(h)))
+        super().__init__(h, [ctx])
+        self.context = ctx
+
+    def add(self, emitter, sensor, pathlength=None):
+        """Append a row; returns its index. pathlength None: a steady-state
+        window made for this set."""
+        if pathlength is None:
+            from .sampling import Pathlength
+
+            pathlength = self.__dict__.get("_steady")
+            if pathlength is None or pathlength.closed:
+                pathlength = self._steady = Pathlength.steady(self.context)
+        row = ctypes.c_int32()
+        check(lib.measurements_add(self._ptr, emitter._ptr, sensor._ptr, pathlength._ptr,
+                                   ctypes.byref(row)))
+        self._borrow(emitter, sensor, pathlength)
+        return row.value
+
+    @property
+    def row_count(self):
+        return lib.measurements_row_count(self._ptr)
+
+    @property
+    def value_count(self):
+        return lib.measurements_value_count(self._ptr)
+
+    def __len__(self):
+        return self.value_count
+
+    def layout(self, row):
+        """(offset, pixels, bins) of a row: value (pixel p, bin b) is at offset + b·pixels + p."""
+        off, px, bins = ctypes.c_size_t(), ctypes.c_int32(), ctypes.c_int32()
+        check(lib.measurements_row_layout(self._ptr, row, ctypes.byref(off), ctypes.byref(px),
+                                          ctypes.byref(bins)))
+        return off.value, px.value, bins.value
+
+    def set_values(self, values, std_errors=None):
+        v = _arrays.to_c(values, "d", name="values")
+        e = _arrays.to_c(std_errors, "d", None if std_errors is None else v.count, "std_errors")
+        check(lib.measurements_set_values(self._ptr, v.ptr, e.ptr, v.count))
+        return self
+
+    def set_weights(self, weights):
+        w = _arrays.to_c(weights, "d", name="weights")
+        check(lib.measurements_set_weights(self._ptr, w.ptr, w.count))
+        return self
+
+    def set_mask(self, mask):
+        """mask: value_count truthy/falsy items (0 = left out of the loss)."""
+        if not hasattr(mask, "dtype") and not isinstance(mask, (bytes, bytearray)):
+            mask = [1 if m else 0 for m in mask]
+        elif hasattr(mask, "dtype"):
+            mask = (mask != 0).astype("uint8")  # any non-zero means "used", as in C
+        m = _arrays.to_c(mask, "B", name="mask")
+        check(lib.measurements_set_mask(self._ptr, m.ptr, m.count))
+        return self
+
+    def _copy(self, fn, typecode):
+        n = self.value_count
+        ptr = fn(self._ptr)
+        return _arrays.copy_from(ptr, n if ptr else 0, typecode)
+
+    @property
+    def values(self):
+        return self._copy(lib.measurements_values, "d")
+
+    @property
+    def std_errors(self):
+        return self._copy(lib.measurements_std_errors, "d")
+
+    @property
+    def weights(self):
+        return self._copy(lib.measurements_weights, "d")
+
+    @property
+    def mask(self):
+        return self._copy(lib.measurements_mask, "B")

@@ -1,0 +1,174 @@
+"""The voxel medium and Mitsuba .vol files."""
+import ctypes
+import os
+
+from . import _arrays
+from ._errors import OutOfRangeError, check
+from ._handle import Handle
+from ._lib import lib
+from ._names import PARAMS, lookup
+from ._structs import VolHeader
+
+
+def param_id(param):
+    """HETINV_PARAM_* from 0/1/2 or "sigma_a"/"sigma_s"/"g"."""
+    return lookup(param, PARAMS, "parameter")
+
+
+def param_name(param):
+    return lib.param_name(param_id(param)).decode()
+
+
+def _path(path):
+    return os.fsencode(path)
+
+
+class Medium(Handle):
+    """hetinv_medium_t: a box of nx × ny × nz voxels holding σa, σs and g.
+
+    Create, set values (each validated), commit(); a committed medium is
+    immutable (clone() it to change it). Grids are in linear voxel order,
+    x fastest.
+    """
+
+    _destroy_name = "medium_destroy"
+
+    def __init__(self, ctx, box_min, box_max, dims):
+        lo = _arrays.fixed(box_min, 3, "d", "box_min")
+        hi = _arrays.fixed(box_max, 3, "d", "box_max")
+        n = _arrays.fixed(dims, 3, "i", "dims")
+        h = ctypes.c_void_p()
+        check(lib.medium_create(ctx._ptr, lo, hi, n, ctypes.byref(h)))
+        super().__init__(h, [ctx])
+        self.context = ctx
+
+    @classmethod
+    def _adopt_new(cls, handle, ctx):
+        m = cls._wrap(handle, [ctx])
+        m.context = ctx
+        return m
+
+    def clone(self):
+        """An uncommitted copy (same context)."""
+        h = ctypes.c_void_p()
+        check(lib.medium_clone(self._ptr, ctypes.byref(h)))
+        return Medium._adopt_new(h, self.context)
+
+    def set_ior(self, eta, eta_out=1.0):
+        check(lib.medium_set_ior(self._ptr, eta, eta_out))
+        return self
+
+    def fill(self, sigma_a, sigma_s, g):
+        check(lib.medium_fill(self._ptr, sigma_a, sigma_s, g))
+        return self
+
+    def set_voxel(self, ix, iy, iz, sigma_a, sigma_s, g):
+        check(lib.medium_set_voxel(self._ptr, ix, iy, iz, sigma_a, sigma_s, g))
+
+    def get_voxel(self, ix, iy, iz):
+        """(σa, σs, g) of voxel (ix, iy, iz)."""
+        a, s, g = ctypes.c_double(), ctypes.c_double(), ctypes.c_double()
+        check(lib.medium_get_voxel(self._ptr, ix, iy, iz, ctypes.byref(a), ctypes.byref(s),
+                                   ctypes.byref(g)))
+        return a.value, s.value, g.value
+
+    def set_grid(self, param, values):
+        """Set one parameter of every voxel (voxel_count values, x fastest;
+        a numpy array of any shape is read in C order, so shape (nz, ny, nx))."""
+        arr = _arrays.to_c(values, "d", name="values")
+        check(lib.medium_set_grid(self._ptr, param_id(param), arr.ptr, arr.count))
+        return self
+
+    def grid(self, param):
+        """A copy of one parameter of every voxel, in linear voxel order."""
+        ptr = lib.medium_grid(self._ptr, param_id(param))
+        if not ptr:  # the library returns NULL without a message for an unknown param
+            raise OutOfRangeError("hetinv_medium_grid: unknown parameter %r" % (param,))
+        return _arrays.copy_from(ptr, self.voxel_count, "d")
+
+    def commit(self):
+        check(lib.medium_commit(self._ptr))
+        return self
+
+    @property
+    def committed(self):
+        return bool(lib.medium_is_committed(self._ptr))
+
+    @property
+    def dims(self):
+        d = (ctypes.c_int32 * 3)()
+        check(lib.medium_get_dims(self._ptr, d))
+        return tuple(d)
+
+    @property
+    def voxel_count(self):
+        return lib.medium_voxel_count(self._ptr)
+
+    @property
+    def box(self):
+        """((xmin, ymin, zmin), (xmax, ymax, zmax))."""
+        lo, hi = (ctypes.c_double * 3)(), (ctypes.c_double * 3)()
+        check(lib.medium_get_box(self._ptr, lo, hi))
+        return tuple(lo), tuple(hi)
+
+    @property
+    def ior(self):
+        """(η inside, η outside)."""
+        eta, out = ctypes.c_double(), ctypes.c_double()
+        check(lib.medium_get_ior(self._ptr, ctypes.byref(eta), ctypes.byref(out)))
+        return eta.value, out.value
+
+    def read_vol(self, param, path):
+        """Set one parameter from a 1-channel .vol file of the same grid."""
+        check(lib.medium_read_vol(self._ptr, param_id(param), _path(path)))
+        return self
+
+    def write_vol(self, param, path):
+        """Write one parameter as a 1-channel .vol file (float32, atomic)."""
+        check(lib.medium_write_vol(self._ptr, param_id(param), _path(path)))
+
+    # simulated volumes (acquire.h)
+    def fill_gaussian_mixture(self, spec=None, **fields):
+        """σa, σs, g from a random Gaussian mixture (hetinv_volume_gaussian_mixture).
+        spec: a MixtureSpec, or its fields as keywords over the defaults."""
+        from ._structs import MixtureSpec
+
+        spec = spec if spec is not None else MixtureSpec(**fields)
+        check(lib.volume_gaussian_mixture(self._ptr, ctypes.byref(spec)))
+        return self
+
+    def fill_smoke(self, spec=None, **fields):
+        """σa, σs, g from a smoke plume (hetinv_volume_smoke)."""
+        from ._structs import SmokeSpec
+
+        spec = spec if spec is not None else SmokeSpec(**fields)
+        check(lib.volume_smoke(self._ptr, ctypes.byref(spec)))
+        return self
+
+
+def vol_read_header(ctx, path):
+    """The VolHeader of a .vol file (validated; values not read)."""
+    header = VolHeader()
+    check(lib.vol_read_header(ctx._ptr, _path(path), ctypes.byref(header)))
+    return header
+
+
+def vol_read(ctx, path):
+    """(VolHeader, float32 values in file order: ((z·ny + y)·nx + x)·channels + c)."""
+    header = vol_read_header(ctx, path)
+    n = header.dims[0] * header.dims[1] * header.dims[2] * header.channels
+    data, ptr = _arrays.empty(n, "f")
+    check(lib.vol_read(ctx._ptr, _path(path), ctypes.byref(header), ptr, n))
+    return header, data
+
+
+def vol_write(ctx, path, data, dims, box_min=(0.0, 0.0, 0.0), box_max=(1.0, 1.0, 1.0),
+              channels=1):
+    """Write float values (rounded to float32) as a .vol file (atomic)."""
+    header = VolHeader()
+    header.dims[:] = list(dims)
+    header.channels = channels
+    header.box_min[:] = list(box_min)
+    header.box_max[:] = list(box_max)
+    arr = _arrays.to_c(data, "f", name="data")
+    check(lib.vol_write(ctx._ptr, _path(path), ctypes.byref(header), arr.ptr, arr.count))

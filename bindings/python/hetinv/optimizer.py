@@ -1,0 +1,198 @@
+"""Appearance matching by stochastic gradient descent (optimizer.h)."""
+import ctypes
+import os
+from collections import namedtuple
+
+from . import _arrays
+from ._errors import HetinvError, check
+from ._handle import Handle
+from ._lib import PROGRESS_FN, lib
+from ._names import METHODS, OPTIMIZER_PARAMS, STOP_REASONS, STOP_REASONS_INV, lookup  # noqa: F401
+from .medium import Medium, param_id
+
+#: What the progress callable receives after every iteration (a copy of
+#: hetinv_progress_t).
+Progress = namedtuple("Progress", "stage stage_count iteration stage_iteration stage_iterations "
+                                  "total_iterations loss step elapsed")
+
+
+def optimizer_param_bounds(param):
+    """(lo, hi) of an optimizer tunable ("method", "decay", ... or its id)."""
+    lo, hi = ctypes.c_double(), ctypes.c_double()
+    check(lib.optimizer_param_bounds(lookup(param, OPTIMIZER_PARAMS, "optimizer parameter"),
+                                     ctypes.byref(lo), ctypes.byref(hi)))
+    return lo.value, hi.value
+
+
+def _mask_bytes(mask, name):
+    if mask is None:
+        return _arrays.to_c(None)
+    if hasattr(mask, "dtype"):
+        mask = (mask != 0).astype("uint8")  # 256 must not wrap to 0
+    else:
+        mask = [1 if m else 0 for m in mask]
+    return _arrays.to_c(mask, "B", name=name)
+
+
+class Optimizer(Handle):
+    """hetinv_optimizer_t for one measurement set and initial medium.
+
+        opt = hetinv.Optimizer(ctx, measurements, initial, method="adadelta")
+        opt.set_bounds("sigma_s", 1.0, 10.0)
+        opt.add_stage(coarse_map, iterations=20)
+        opt.add_stage(fine_map, iterations=20)
+        opt.set_progress(lambda p: print(p.iteration, p.loss))
+        opt.run(estimator)
+        result = opt.result()
+
+    The C optimizer borrows the set and the stage maps: this object keeps
+    them (and the initial medium) alive, and closing one of them closes the
+    optimizer first.
+    """
+
+    _destroy_name = "optimizer_destroy"
+    param_bounds = staticmethod(optimizer_param_bounds)
+
+    def __init__(self, ctx, measurements, initial, **params):
+        h = ctypes.c_void_p()
+        check(lib.optimizer_create(ctx._ptr, measurements._ptr, initial._ptr, ctypes.byref(h)))
+        super().__init__(h, [ctx])
+        self.context = ctx
+        self._borrow(measurements)
+        self._initial = initial  # copied by the library; kept for the caller's convenience
+        self._maps = []          # stage maps, in schedule order
+        self._callback = None    # the CFUNCTYPE object: must live as long as the C pointer
+        self._callback_error = None
+        for name, value in params.items():
+            self.set_param(name, value)
+
+    def set_param(self, param, value):
+        p = lookup(param, OPTIMIZER_PARAMS, "optimizer parameter")
+        if p == OPTIMIZER_PARAMS["method"]:
+            value = lookup(value, METHODS, "method")
+        check(lib.optimizer_set_param(self._ptr, p, value))
+        return self
+
+    def get_param(self, param):
+        v = ctypes.c_double()
+        check(lib.optimizer_get_param(self._ptr, lookup(param, OPTIMIZER_PARAMS,
+                                                        "optimizer parameter"), ctypes.byref(v)))
+        return v.value
+
+    def set_bounds(self, param, lo, hi):
+        """Box of one physical parameter ("sigma_a", "sigma_s", "g"); hi may be float("inf")."""
+        check(lib.optimizer_set_bounds(self._ptr, param_id(param), lo, hi))
+        return self
+
+    def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None):
+        """Append a stage on `param_map`. frozen: param_map.size flags
+        (true = entry kept fixed); value_mask: value_count flags (false =
+        value left out). iterations 0: the "iterations" tunable."""
+        f = _mask_bytes(frozen, "frozen")
+        m = _mask_bytes(value_mask, "value_mask")
+        stage = _structs_stage(param_map, iterations, f, m)
+        check(lib.optimizer_add_stage(self._ptr, ctypes.byref(stage)))
+        self._borrow(param_map)
+        self._maps.append(param_map)
+        return self
+
+    def add_layerwise_stages(self, param_map, layer_thickness, layers, iterations=0):
+        """Append the layer-wise stages of the paper's Fig. 2(b) (identity map,
+        pathlength-resolved frontlit rows)."""
+        check(lib.optimizer_add_layerwise_stages(self._ptr, param_map._ptr, layer_thickness,
+                                                 layers, iterations))
+        self._borrow(param_map)
+        self._maps.extend([param_map] * layers)
+        return self
+
+    def set_progress(self, fn):
+        """Call fn(Progress) after every iteration; a true return value stops
+        the run (stop reason "callback"). An exception raised by fn stops
+        the run too and is re-raised by run(). None removes the callback."""
+        if fn is None:
+            check(lib.optimizer_set_progress(self._ptr, PROGRESS_FN(), None))
+            self._callback = None
+            return self
+
+        def trampoline(progress, _user):
+            try:
+                p = progress.contents
+                return 1 if fn(Progress(p.stage, p.stage_count, p.iteration, p.stage_iteration,
+                                        p.stage_iterations, p.total_iterations, p.loss, p.step,
+                                        p.elapsed)) else 0
+            except BaseException as e:  # never unwind through C
+                self._callback_error = e
+                return 1
+
+        cb = PROGRESS_FN(trampoline)
+        check(lib.optimizer_set_progress(self._ptr, cb, None))
+        self._callback = cb
+        return self
+
+    def set_checkpoint(self, path):
+        """Write checkpoints to `path` during runs (None: stop)."""
+        check(lib.optimizer_set_checkpoint(self._ptr, None if path is None else os.fsencode(path)))
+        return self
+
+    def save(self, path):
+        check(lib.optimizer_save(self._ptr, os.fsencode(path)))
+
+    def resume(self, path):
+        """Restore a checkpoint written by an identically configured optimizer."""
+        check(lib.optimizer_resume(self._ptr, os.fsencode(path)))
+        return self
+
+    def run(self, estimator):
+        """Run the schedule; returns why it ended: "completed", "time_budget"
+        or "callback"."""
+        reason = ctypes.c_int32()
+        self._callback_error = None
+        rc = lib.optimizer_run(self._ptr, estimator._ptr, ctypes.byref(reason))
+        err, self._callback_error = self._callback_error, None
+        if err is not None:
+            raise err
+        check(rc)
+        return STOP_REASONS.get(reason.value, reason.value)
+
+    def result(self):
+        """The current estimate as a new committed Medium."""
+        h = ctypes.c_void_p()
+        check(lib.optimizer_result(self._ptr, ctypes.byref(h)))
+        return Medium._adopt_new(h, self.context)
+
+    def get_pi(self, averaged=True):
+        """The current stage's π: the trailing average or the last iterate."""
+        sizes = []
+        for m in reversed(self._maps):
+            if m.size not in sizes:
+                sizes.append(m.size)
+        error = None
+        for k in sizes or [0]:
+            out, ptr = _arrays.empty(k)
+            rc = lib.optimizer_get_pi(self._ptr, 1 if averaged else 0, ptr, k)
+            if rc == 0:
+                return out
+            try:
+                check(rc)
+            except HetinvError as e:  # a count of another stage: try the next size
+                error = e
+                if rc != 2:
+                    raise
+        raise error
+
+    def losses(self):
+        """The loss of every iteration run so far."""
+        n = ctypes.c_size_t()
+        ptr = lib.optimizer_losses(self._ptr, ctypes.byref(n))
+        return _arrays.copy_from(ptr, n.value if ptr else 0)
+
+
+def _structs_stage(param_map, iterations, frozen, value_mask):
+    from ._structs import Stage
+
+    s = Stage()
+    s.map = param_map._ptr
+    s.iterations = iterations
+    s.frozen = frozen.ptr
+    s.value_mask = value_mask.ptr
+    return s

@@ -1,0 +1,88 @@
+"""Parameter maps: the vector π and how it spreads over a medium's voxels (param.h)."""
+import ctypes
+
+from . import _arrays
+from ._errors import check
+from ._handle import Handle
+from ._lib import lib
+from ._names import free_mask
+
+
+class ParamMap(Handle):
+    """hetinv_param_map_t: ParamMap.identity / coarse / broadcast(medium, ..., free).
+
+    `free` is a mask (hetinv.FREE_ALL, FREE_SIGMA_S, ...), a parameter name
+    or a list of them, e.g. ("sigma_a", "sigma_s").
+    """
+
+    _destroy_name = "param_map_destroy"
+
+    @classmethod
+    def _made(cls, h, medium):
+        m = cls._wrap(h, [medium.context])
+        m.context = medium.context
+        return m
+
+    @classmethod
+    def identity(cls, medium, free="sigma_s"):
+        h = ctypes.c_void_p()
+        check(lib.param_map_create_identity(medium._ptr, free_mask(free), ctypes.byref(h)))
+        return cls._made(h, medium)
+
+    @classmethod
+    def coarse(cls, medium, coarse_dims, free="sigma_s"):
+        h = ctypes.c_void_p()
+        check(lib.param_map_create_coarse(medium._ptr, _arrays.fixed(coarse_dims, 3, "i", "coarse_dims"),
+                                          free_mask(free), ctypes.byref(h)))
+        return cls._made(h, medium)
+
+    @classmethod
+    def broadcast(cls, medium, axis, free="sigma_s"):
+        h = ctypes.c_void_p()
+        check(lib.param_map_create_broadcast(medium._ptr, axis, free_mask(free), ctypes.byref(h)))
+        return cls._made(h, medium)
+
+    @property
+    def size(self):
+        """K, the length of π."""
+        return lib.param_map_size(self._ptr)
+
+    def __len__(self):
+        return self.size
+
+    @property
+    def free_mask(self):
+        return lib.param_map_free_mask(self._ptr)
+
+    @property
+    def dims(self):
+        d = (ctypes.c_int32 * 3)()
+        check(lib.param_map_get_dims(self._ptr, d))
+        return tuple(d)
+
+    def entry(self, index):
+        """(parameter id, cell) of π entry `index`."""
+        p, c = ctypes.c_int32(), ctypes.c_size_t()
+        check(lib.param_map_entry(self._ptr, index, ctypes.byref(p), ctypes.byref(c)))
+        return p.value, c.value
+
+    def apply(self, pi, medium):
+        """Write π into an uncommitted medium."""
+        a = _arrays.to_c(pi, "d", name="pi")
+        check(lib.param_map_apply(self._ptr, a.ptr, a.count, medium._ptr))
+        return medium
+
+    def extract(self, medium):
+        """π from a medium (cell averages for coarse and broadcast maps)."""
+        n = self.size
+        out, ptr = _arrays.empty(n)
+        check(lib.param_map_extract(self._ptr, medium._ptr, ptr, n))
+        return out
+
+    def pullback(self, voxel_grad):
+        """∂/∂π from 3·V voxel gradients (σa of every voxel, then σs, then g)."""
+        g = _arrays.to_c(voxel_grad, "d", name="voxel_grad")
+        n = self.size
+        out, ptr = _arrays.empty(n)
+        check(lib.param_map_pullback(self._ptr, g.ptr, ptr, n))
+        return out

@@ -1,0 +1,168 @@
+"""Sampling functions: emitters, sensors, pathlength windows (sampling.h).
+
+Emitters and sensors are made from a medium, whose box and refractive
+indices they copy (they keep no pointer to it); all three are immutable.
+Faces are 0..5 or "x_min" ... "z_max"; a point on a face is (u, v).
+"""
+import ctypes
+
+from . import _arrays
+from ._errors import check
+from ._handle import Handle
+from ._lib import lib
+from ._names import FACES, WINDOWS, lookup
+
+
+def _from_medium(cls, h, medium):
+    # made from the medium's context, which must outlive it; the medium itself is not borrowed
+    obj = cls._wrap(h, [medium.context])
+    obj.context = medium.context
+    return obj
+
+
+def face_id(face):
+    return lookup(face, FACES, "face")
+
+
+class Emitter(Handle):
+    """hetinv_emitter_t. Make one with Emitter.ideal / area / diffuse / combination."""
+
+    _destroy_name = "emitter_destroy"
+
+    _made = classmethod(lambda cls, h, medium: _from_medium(cls, h, medium))
+
+    @classmethod
+    def ideal(cls, medium, origin, direction):
+        """A collimated pencil beam from `origin` (outside the box) along `direction`."""
+        h = ctypes.c_void_p()
+        check(lib.emitter_create_ideal(medium._ptr, _arrays.fixed(origin, 3, "d", "origin"),
+                                       _arrays.fixed(direction, 3, "d", "direction"),
+                                       ctypes.byref(h)))
+        return cls._made(h, medium)
+
+    @classmethod
+    def area(cls, medium, face, direction, rect_min, rect_max, pattern=None, pattern_shape=None):
+        """A collimated area source on a face's rectangle. `pattern`: weights,
+        u fastest, of shape pattern_shape = (width, height); a 2D numpy array
+        of shape (height, width) needs no pattern_shape. None: uniform."""
+        if pattern is None:
+            w = hgt = 1
+            pat = _arrays.to_c(None)
+        else:
+            if pattern_shape is None:
+                shape = getattr(pattern, "shape", None)
+                if shape is None or len(shape) != 2:
+                    raise ValueError("pattern_shape=(width, height) is needed for a flat pattern")
+                hgt, w = shape
+            else:
+                w, hgt = pattern_shape
+            pat = _arrays.to_c(pattern, "d", w * hgt, "pattern")
+        h = ctypes.c_void_p()
+        check(lib.emitter_create_area(medium._ptr, face_id(face),
+                                      _arrays.fixed(direction, 3, "d", "direction"),
+                                      _arrays.fixed(rect_min, 2, "d", "rect_min"),
+                                      _arrays.fixed(rect_max, 2, "d", "rect_max"), w, hgt,
+                                      pat.ptr, ctypes.byref(h)))
+        return cls._made(h, medium)
+
+    @classmethod
+    def diffuse(cls, medium, face, point):
+        """A Lambertian point source at face coordinates `point`."""
+        h = ctypes.c_void_p()
+        check(lib.emitter_create_diffuse(medium._ptr, face_id(face),
+                                         _arrays.fixed(point, 2, "d", "point"), ctypes.byref(h)))
+        return cls._made(h, medium)
+
+    @classmethod
+    def combination(cls, medium, origins, directions, weights):
+        """A weighted sum of pencil beams: origins and directions are lists
+        of 3-vectors (or flat 3·n sequences), weights n powers."""
+        w = _arrays.to_c(weights, "d", name="weights")
+        o = _arrays.to_c(_flat(origins), "d", 3 * w.count, "origins")
+        d = _arrays.to_c(_flat(directions), "d", 3 * w.count, "directions")
+        h = ctypes.c_void_p()
+        check(lib.emitter_create_combination(medium._ptr, w.count, o.ptr, d.ptr, w.ptr,
+                                             ctypes.byref(h)))
+        return cls._made(h, medium)
+
+
+def _flat(vectors):
+    if hasattr(vectors, "shape"):
+        return vectors  # numpy: read in C order
+    out = []
+    for v in vectors:
+        if isinstance(v, (int, float)):
+            out.append(v)
+        else:
+            out.extend(v)
+    return out
+
+
+class Sensor(Handle):
+    """hetinv_sensor_t. Make one with Sensor.orthographic or Sensor.hemispherical."""
+
+    _destroy_name = "sensor_destroy"
+
+    @classmethod
+    def orthographic(cls, medium, face, direction, origin, pixel_size, width, height):
+        """A width × height pixel grid on a face seeing light that leaves it along `direction`."""
+        h = ctypes.c_void_p()
+        check(lib.sensor_create_orthographic(
+            medium._ptr, face_id(face), _arrays.fixed(direction, 3, "d", "direction"),
+            _arrays.fixed(origin, 2, "d", "origin"), _arrays.fixed(pixel_size, 2, "d", "pixel_size"),
+            width, height, ctypes.byref(h)))
+        return _from_medium(cls, h, medium)
+
+    @classmethod
+    def hemispherical(cls, medium, face, rect_min=None, rect_max=None):
+        """All power leaving through a face's rectangle (the whole face if omitted)."""
+        h = ctypes.c_void_p()
+        check(lib.sensor_create_hemispherical(medium._ptr, face_id(face),
+                                              _arrays.fixed(rect_min, 2, "d", "rect_min"),
+                                              _arrays.fixed(rect_max, 2, "d", "rect_max"),
+                                              ctypes.byref(h)))
+        return _from_medium(cls, h, medium)
+
+    @property
+    def pixel_count(self):
+        return lib.sensor_pixel_count(self._ptr)
+
+    @property
+    def size(self):
+        """(width, height); (1, 1) for a hemispherical detector."""
+        w, h = ctypes.c_int32(), ctypes.c_int32()
+        check(lib.sensor_get_size(self._ptr, ctypes.byref(w), ctypes.byref(h)))
+        return w.value, h.value
+
+
+class Pathlength(Handle):
+    """hetinv_pathlength_t: Pathlength.steady(ctx) or Pathlength.bins(ctx, ...)."""
+
+    _destroy_name = "pathlength_destroy"
+
+    @classmethod
+    def _made(cls, h, ctx):
+        p = cls._wrap(h, [ctx])
+        p.context = ctx
+        return p
+
+    @classmethod
+    def steady(cls, ctx):
+        """Steady state: one bin, every pathlength."""
+        h = ctypes.c_void_p()
+        check(lib.pathlength_create_steady(ctx._ptr, ctypes.byref(h)))
+        return cls._made(h, ctx)
+
+    @classmethod
+    def bins(cls, ctx, centres, width, window="box"):
+        """Pathlength bins at `centres` of width (box) or standard deviation
+        (window="gaussian") `width`."""
+        c = _arrays.to_c(centres, "d", name="centres")
+        h = ctypes.c_void_p()
+        check(lib.pathlength_create_bins(ctx._ptr, lookup(window, WINDOWS, "window"), c.count,
+                                         c.ptr, width, ctypes.byref(h)))
+        return cls._made(h, ctx)
+
+    @property
+    def bin_count(self):
+        return lib.pathlength_bin_count(self._ptr)
