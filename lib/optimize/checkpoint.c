@@ -140,7 +140,7 @@ static const char *fingerprint_diff(const fingerprint_t *a, const fingerprint_t 
   }
   for (int p = 0; p < HETINV_OPTIMIZER_PARAM_COUNT_; ++p) {
     if (memcmp(&a->param[p], &b->param[p], sizeof(double)) != 0) {
-      snprintf(msg, len, "optimizer parameter %d is %.17g in the checkpoint and %.17g here", p,
+      snprintf(msg, len, "%s is %.17g in the checkpoint and %.17g here", hv_optimizer_param_name(p),
                a->param[p], b->param[p]);
       return msg;
     }
