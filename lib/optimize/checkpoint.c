@@ -282,13 +282,15 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
   char magic[8];
   get(&rd, magic, 8);
   uint64_t tag = get_u64(&rd), version = get_u64(&rd);
+  /* The checksum before the version: a damaged header is damage, not a
+   * newer format; an intact file of another format is unsupported. */
   if (rd.short_read || memcmp(magic, MAGIC, 8) != 0) {
     r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is not a libhetinv checkpoint (bad magic)", path);
+  } else if (len < rd.at + 8 || fnv1a(FNV_OFFSET, data, len - 8) != stored_checksum(data, len)) {
+    r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is damaged: its checksum does not match", path);
   } else if (tag != BYTE_ORDER_TAG || version != FORMAT_VERSION) {
     r = HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED, "'%s': checkpoint format %llu or byte order not supported", path,
                 (unsigned long long)version);
-  } else if (len < rd.at + 8 || fnv1a(FNV_OFFSET, data, len - 8) != stored_checksum(data, len)) {
-    r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is damaged: its checksum does not match", path);
   }
   fingerprint_t saved, here;
   char msg[256];
