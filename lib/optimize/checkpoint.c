@@ -332,7 +332,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
       }
     }
     uint64_t losses = r == HETINV_SUCCESS ? get_u64(&rd) : 0;
-    if (r == HETINV_SUCCESS && (rd.short_read || losses != (uint64_t)opt->iteration)) {
+    /* Bounded by the bytes left before anything is allocated: a consistent
+     * but hostile count must not ask for terabytes. */
+    if (r == HETINV_SUCCESS && (rd.short_read || losses != (uint64_t)opt->iteration ||
+                                losses > (len - 8 - rd.at) / sizeof(double))) {
       r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s': inconsistent loss history", path);
     }
     if (r == HETINV_SUCCESS && losses > 0) {
@@ -354,6 +357,11 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
       get(&rd, grid, v * sizeof(double));
       r = rd.short_read ? HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is truncated", path)
                         : hetinv_medium_set_grid(base, p, grid, v);
+      /* Values outside the parameter's domain are damage, not a bad argument. */
+      if (r == HETINV_ERROR_INVALID_ARGUMENT) {
+        r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s': the base medium holds an invalid %s", path,
+                    hetinv_param_name(p));
+      }
     }
     hv_free(ctx, grid);
     if (r == HETINV_SUCCESS && rd.at + 8 != len) {
