@@ -82,8 +82,9 @@ enum hetinv_optimizer_param_id {
   HETINV_OPTIMIZER_METHOD = 0,
   /** ADADELTA's decay rate γ (default 0.95; [0, 1)). */
   HETINV_OPTIMIZER_DECAY = 1,
-  /** ADADELTA's ε, relative: ε_k = (EPSILON · s_k)², so the first steps
-   *  move an entry by about EPSILON of its box width (default 0.01; (0, 1]). */
+  /** ADADELTA's ε, relative: ε_k = (EPSILON · s_k)², so the first step
+   *  moves an entry by EPSILON · s_k / sqrt(1 − DECAY) (about 4.5 EPSILON of
+   *  its box width with the default DECAY) (default 0.01; (0, 1]). */
   HETINV_OPTIMIZER_EPSILON = 2,
   /** Step size of SGD, AdaGrad and Adam (default 0.01; (0, 1e12]). */
   HETINV_OPTIMIZER_LEARNING_RATE = 3,
@@ -254,9 +255,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
  * the nearest box face that carries a frontlit row (a row whose sensor is on
  * the face its emitter enters). Stage n frees layer n only (earlier layers
  * stay as estimated, deeper ones as initialised) and keeps the values of
- * frontlit rows whose pathlength window ends before 2·(n+1)·h + the
- * distance from the emitter's entry point to the sensor pixel, i.e. light
- * that cannot have gone deeper than layer n. Only identity maps qualify.
+ * frontlit rows whose pathlength window ends before sqrt(d² + (2·(n+1)·h)²),
+ * d the distance from the emitter's entry point to the sensor pixel's
+ * centre (the shortest path that touches depth (n+1)·h), i.e. light that
+ * cannot have gone deeper than layer n. Only identity maps qualify.
  * @param optimizer the optimizer.
  * @param map an identity map of the medium's grid (borrowed).
  * @param layer_thickness h, > 0, in the box's units.

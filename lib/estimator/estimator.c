@@ -23,6 +23,10 @@ static const struct {
     [HETINV_ESTIMATOR_EPOCH] = {"HETINV_ESTIMATOR_EPOCH", 0, 9007199254740992.0 /* 2^53 */, 0, true},
 };
 
+const char *hv_estimator_param_name(hetinv_estimator_param_t param) {
+  return param >= 0 && param < HETINV_ESTIMATOR_PARAM_COUNT_ ? params[param].name : "an unknown tunable";
+}
+
 HETINV_API hetinv_result_t hetinv_estimator_create(hetinv_context_t *ctx, hetinv_estimator_t **out) {
   HV_CHECK_NULL(ctx, out);
   *out = NULL;

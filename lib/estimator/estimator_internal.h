@@ -13,4 +13,7 @@ struct hetinv_estimator {
   hetinv_render_stats_t stats;
 };
 
+/* "HETINV_ESTIMATOR_PHOTONS", ..., for messages of other modules. */
+const char *hv_estimator_param_name(hetinv_estimator_param_t param);
+
 #endif

@@ -140,7 +140,7 @@ static const char *fingerprint_diff(const fingerprint_t *a, const fingerprint_t 
   }
   for (int p = 0; p < HETINV_OPTIMIZER_PARAM_COUNT_; ++p) {
     if (memcmp(&a->param[p], &b->param[p], sizeof(double)) != 0) {
-      snprintf(msg, len, "optimizer parameter %d is %.17g in the checkpoint and %.17g here", p,
+      snprintf(msg, len, "%s is %.17g in the checkpoint and %.17g here", hv_optimizer_param_name(p),
                a->param[p], b->param[p]);
       return msg;
     }
@@ -282,13 +282,15 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
   char magic[8];
   get(&rd, magic, 8);
   uint64_t tag = get_u64(&rd), version = get_u64(&rd);
+  /* The checksum before the version: a damaged header is damage, not a
+   * newer format; an intact file of another format is unsupported. */
   if (rd.short_read || memcmp(magic, MAGIC, 8) != 0) {
     r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is not a libhetinv checkpoint (bad magic)", path);
+  } else if (len < rd.at + 8 || fnv1a(FNV_OFFSET, data, len - 8) != stored_checksum(data, len)) {
+    r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is damaged: its checksum does not match", path);
   } else if (tag != BYTE_ORDER_TAG || version != FORMAT_VERSION) {
     r = HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED, "'%s': checkpoint format %llu or byte order not supported", path,
                 (unsigned long long)version);
-  } else if (len < rd.at + 8 || fnv1a(FNV_OFFSET, data, len - 8) != stored_checksum(data, len)) {
-    r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is damaged: its checksum does not match", path);
   }
   fingerprint_t saved, here;
   char msg[256];
@@ -330,7 +332,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
       }
     }
     uint64_t losses = r == HETINV_SUCCESS ? get_u64(&rd) : 0;
-    if (r == HETINV_SUCCESS && (rd.short_read || losses != (uint64_t)opt->iteration)) {
+    /* Bounded by the bytes left before anything is allocated: a consistent
+     * but hostile count must not ask for terabytes. */
+    if (r == HETINV_SUCCESS && (rd.short_read || losses != (uint64_t)opt->iteration ||
+                                losses > (len - 8 - rd.at) / sizeof(double))) {
       r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s': inconsistent loss history", path);
     }
     if (r == HETINV_SUCCESS && losses > 0) {
@@ -352,6 +357,11 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
       get(&rd, grid, v * sizeof(double));
       r = rd.short_read ? HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is truncated", path)
                         : hetinv_medium_set_grid(base, p, grid, v);
+      /* Values outside the parameter's domain are damage, not a bad argument. */
+      if (r == HETINV_ERROR_INVALID_ARGUMENT) {
+        r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s': the base medium holds an invalid %s", path,
+                    hetinv_param_name(p));
+      }
     }
     hv_free(ctx, grid);
     if (r == HETINV_SUCCESS && rd.at + 8 != len) {

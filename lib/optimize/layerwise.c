@@ -50,7 +50,9 @@ static void voxel_layers(const hetinv_medium_t *m, const bool lit[6], double h, 
           double c = m->box_min[a] + (idx[a] + 0.5) * size[a];
           depth = fmin(depth, (f & 1) ? m->box_max[a] - c : c - m->box_min[a]);
         }
-        layer[v] = (int32_t)floor(depth / h);
+        /* Clamped: a tiny h would overflow the conversion (undefined behaviour). */
+        double n = floor(depth / h);
+        layer[v] = n < (double)INT32_MAX ? (int32_t)n : INT32_MAX;
       }
     }
   }

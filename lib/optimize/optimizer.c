@@ -15,20 +15,24 @@ typedef struct param_info {
 } param_info_t;
 
 static const param_info_t PARAMS[HETINV_OPTIMIZER_PARAM_COUNT_] = {
-    [HETINV_OPTIMIZER_METHOD] = {HETINV_METHOD_ADADELTA, 0, HETINV_METHOD_COUNT_ - 1, true, "METHOD"},
-    [HETINV_OPTIMIZER_DECAY] = {0.95, 0, 0.999999, false, "DECAY"},
-    [HETINV_OPTIMIZER_EPSILON] = {0.01, 1e-12, 1, false, "EPSILON"},
-    [HETINV_OPTIMIZER_LEARNING_RATE] = {0.01, 1e-300, 1e12, false, "LEARNING_RATE"},
-    [HETINV_OPTIMIZER_BETA1] = {0.9, 0, 0.999999, false, "BETA1"},
-    [HETINV_OPTIMIZER_BETA2] = {0.999, 0, 0.999999, false, "BETA2"},
-    [HETINV_OPTIMIZER_MINIBATCH] = {0, 0, 2147483647.0, true, "MINIBATCH"},
-    [HETINV_OPTIMIZER_ITERATIONS] = {100, 1, 1e15, true, "ITERATIONS"},
-    [HETINV_OPTIMIZER_TIME_BUDGET] = {0, 0, 1e12, false, "TIME_BUDGET"},
-    [HETINV_OPTIMIZER_PLATEAU_WINDOW] = {0, 0, 1e9, true, "PLATEAU_WINDOW"},
-    [HETINV_OPTIMIZER_PLATEAU_TOLERANCE] = {0.01, 0, 1, false, "PLATEAU_TOLERANCE"},
-    [HETINV_OPTIMIZER_AVERAGE_WINDOW] = {20, 1, 4096, true, "AVERAGE_WINDOW"},
-    [HETINV_OPTIMIZER_CHECKPOINT_INTERVAL] = {10, 1, 1e15, true, "CHECKPOINT_INTERVAL"},
+    [HETINV_OPTIMIZER_METHOD] = {HETINV_METHOD_ADADELTA, 0, HETINV_METHOD_COUNT_ - 1, true, "HETINV_OPTIMIZER_METHOD"},
+    [HETINV_OPTIMIZER_DECAY] = {0.95, 0, 0.999999, false, "HETINV_OPTIMIZER_DECAY"},
+    [HETINV_OPTIMIZER_EPSILON] = {0.01, 1e-12, 1, false, "HETINV_OPTIMIZER_EPSILON"},
+    [HETINV_OPTIMIZER_LEARNING_RATE] = {0.01, 1e-300, 1e12, false, "HETINV_OPTIMIZER_LEARNING_RATE"},
+    [HETINV_OPTIMIZER_BETA1] = {0.9, 0, 0.999999, false, "HETINV_OPTIMIZER_BETA1"},
+    [HETINV_OPTIMIZER_BETA2] = {0.999, 0, 0.999999, false, "HETINV_OPTIMIZER_BETA2"},
+    [HETINV_OPTIMIZER_MINIBATCH] = {0, 0, 2147483647.0, true, "HETINV_OPTIMIZER_MINIBATCH"},
+    [HETINV_OPTIMIZER_ITERATIONS] = {100, 1, 1e15, true, "HETINV_OPTIMIZER_ITERATIONS"},
+    [HETINV_OPTIMIZER_TIME_BUDGET] = {0, 0, 1e12, false, "HETINV_OPTIMIZER_TIME_BUDGET"},
+    [HETINV_OPTIMIZER_PLATEAU_WINDOW] = {0, 0, 1e9, true, "HETINV_OPTIMIZER_PLATEAU_WINDOW"},
+    [HETINV_OPTIMIZER_PLATEAU_TOLERANCE] = {0.01, 0, 1, false, "HETINV_OPTIMIZER_PLATEAU_TOLERANCE"},
+    [HETINV_OPTIMIZER_AVERAGE_WINDOW] = {20, 1, 4096, true, "HETINV_OPTIMIZER_AVERAGE_WINDOW"},
+    [HETINV_OPTIMIZER_CHECKPOINT_INTERVAL] = {10, 1, 1e15, true, "HETINV_OPTIMIZER_CHECKPOINT_INTERVAL"},
 };
+
+const char *hv_optimizer_param_name(hetinv_optimizer_param_t param) {
+  return param >= 0 && param < HETINV_OPTIMIZER_PARAM_COUNT_ ? PARAMS[param].name : "an unknown tunable";
+}
 
 HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
                                                    const hetinv_measurements_t *set,
@@ -112,7 +116,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_set_param(hetinv_optimizer_t *optimi
   }
   const param_info_t *info = &PARAMS[param];
   if (!(value >= info->lo && value <= info->hi) || (info->integer && value != floor(value))) {
-    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "%s is %g; it must be %s in [%g, %g]",
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "%s is %.15g; it must be %s in [%.15g, %.15g]",
                    info->name, value, info->integer ? "an integer" : "a number", info->lo, info->hi);
   }
   if (optimizer->started) {

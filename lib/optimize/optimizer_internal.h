@@ -63,6 +63,8 @@ struct hetinv_optimizer {
 };
 
 /* optimizer.c */
+/* "HETINV_OPTIMIZER_DECAY", ..., for messages. */
+const char *hv_optimizer_param_name(hetinv_optimizer_param_t param);
 hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt, const char *func);
 void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt);
 hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k,

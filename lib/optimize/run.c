@@ -6,6 +6,7 @@
 
 #include "core/alloc.h"
 #include "core/error.h"
+#include "estimator/estimator_internal.h"
 #include "optimize/optimizer_internal.h"
 
 static double now_seconds(void) {
@@ -126,8 +127,8 @@ static hetinv_result_t check_estimator(hetinv_optimizer_t *opt, const hetinv_est
     if (p == HETINV_ESTIMATOR_EPOCH) v = 0.0;
     if (opt->verify_est_param && v != opt->est_param[p]) {
       return hv_fail(opt->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
-                     "estimator parameter %d is %.17g; the checkpointed run used %.17g", p, v,
-                     opt->est_param[p]);
+                     "the estimator's %s is %.17g; the checkpointed run used %.17g",
+                     hv_estimator_param_name(p), v, opt->est_param[p]);
     }
     opt->est_param[p] = v;
   }

@@ -1,0 +1,1556 @@
+/* The optimizer: tunables and bounds with their exact errors, one step of
+ * every method against a hand computation (white-box), descent of every
+ * method on a tiny problem, box projection, frozen entries and masked
+ * values, minibatch reproducibility, stopping rules and progress,
+ * multi-resolution hand-over, checkpoints (a child process killed half-way
+ * by SIGKILL, resumed in the parent, compared bitwise with an uninterrupted
+ * run; refused configurations; damaged files), layer-wise stages and NULL
+ * arguments.
+ *
+ * Scenes are a 1 mm cube of 2 x 1 x 2 (or 3 x 1 x 3) voxels, η = 1.3, a few
+ * pencil beams and small orthographic sensors, a few hundred photons per
+ * emitter, so every test runs in a fraction of a second under ASan. The
+ * contexts use one thread: the checkpoint tests fork(), and an OpenMP
+ * runtime that has started worker threads is not fork-safe. */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <dirent.h>
+
+#include "test_support.h"
+
+#include "optimize/optimizer_internal.h"
+
+#define SS HETINV_FREE(HETINV_PARAM_SIGMA_S)
+#define NaN ((double)NAN)
+#define Inf ((double)INFINITY)
+
+/* |a - b| <= tol, printing both on failure. */
+#define assert_close(a, b, tol) \
+  do { \
+    double a_ = (a), b_ = (b); \
+    if (!(fabs(a_ - b_) <= (tol))) { \
+      print_error("%s = %.17g, expected %s = %.17g (tolerance %g)\n", #a, a_, #b, b_, (double)(tol)); \
+      fail(); \
+    } \
+  } while (0)
+
+enum { MAX_EMITTERS = 4, MAX_K = 16, MAX_LOSSES = 256, MAX_VOXELS = 16 };
+
+static const double TRUTH_SIGMA_A = 0.2, TRUTH_SIGMA_S = 3.0, START_SIGMA_S = 8.0;
+static const double SIGMA_LO = 1.0, SIGMA_HI = 10.0; /* the paper's box */
+
+/* ------------------------------------------------------------------------ */
+/* A tiny problem: a uniform (or, for layer-wise tests, layered) medium, pencil
+ * beams entering face Z_MIN along +z, an orthographic reflection sensor on
+ * Z_MIN and a transmission sensor on Z_MAX (2 x 1 pixels each). With
+ * `bins`, the rows are reflection only and resolved in pathlength (16 box
+ * bins of 0.25 mm): the frontlit set of the layer-wise procedure. */
+
+typedef struct problem {
+  hetinv_context_t *ctx;
+  int32_t dims[3];
+  int emitters;
+  hetinv_medium_t *truth, *initial;
+  hetinv_emitter_t *beams[MAX_EMITTERS];
+  double beam_x[MAX_EMITTERS];
+  hetinv_sensor_t *reflect, *transmit;
+  hetinv_pathlength_t *pathlength;
+  hetinv_measurements_t *set;
+  hetinv_estimator_t *est;
+  hetinv_param_map_t *coarse, *identity; /* σs free: 1 x 1 x 1, and per voxel */
+  size_t count;
+} problem_t;
+
+enum { BINS = 16 };
+static const double BIN_WIDTH = 0.25;
+
+static hetinv_context_t *make_context(uint64_t seed) {
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.thread_count = 1;
+  init.seed = seed;
+  hetinv_context_t *ctx = NULL;
+  assert_ok(hetinv_context_create(&init, &ctx));
+  return ctx;
+}
+
+static hetinv_medium_t *make_medium(hetinv_context_t *ctx, const int32_t dims[3], double sigma_s) {
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_medium_create(ctx, (double[]){0, 0, 0}, (double[]){1, 1, 1}, dims, &m));
+  assert_ok(hetinv_medium_fill(m, TRUTH_SIGMA_A, sigma_s, 0.0));
+  assert_ok(hetinv_medium_set_ior(m, 1.3, 1.0));
+  return m;
+}
+
+static void problem_init(problem_t *p, uint64_t seed, int32_t nx, int32_t nz, int emitters, bool bins) {
+  *p = (problem_t){.ctx = make_context(seed), .dims = {nx, 1, nz}, .emitters = emitters};
+  p->truth = make_medium(p->ctx, p->dims, TRUTH_SIGMA_S);
+  if (bins) { /* layered truth: σs grows with depth */
+    for (int32_t z = 0; z < nz; ++z) {
+      for (int32_t x = 0; x < nx; ++x) {
+        assert_ok(hetinv_medium_set_voxel(p->truth, x, 0, z, TRUTH_SIGMA_A, 2.0 + z, 0.0));
+      }
+    }
+  }
+  assert_ok(hetinv_medium_commit(p->truth));
+  p->initial = make_medium(p->ctx, p->dims, START_SIGMA_S);
+  assert_ok(hetinv_medium_commit(p->initial));
+
+  const double *pixel = nx == 3 ? (double[]){1.0 / 3, 1} : (double[]){0.5, 1};
+  int32_t width = nx == 3 ? 3 : 2;
+  assert_ok(hetinv_sensor_create_orthographic(p->truth, HETINV_FACE_Z_MIN, (double[]){0, 0, -1},
+                                              (double[]){0, 0}, pixel, width, 1, &p->reflect));
+  assert_ok(hetinv_sensor_create_orthographic(p->truth, HETINV_FACE_Z_MAX, (double[]){0, 0, 1},
+                                              (double[]){0, 0}, pixel, width, 1, &p->transmit));
+  if (bins) {
+    double centres[BINS];
+    for (int i = 0; i < BINS; ++i) centres[i] = (i + 0.5) * BIN_WIDTH;
+    assert_ok(hetinv_pathlength_create_bins(p->ctx, HETINV_WINDOW_BOX, BINS, centres, BIN_WIDTH,
+                                            &p->pathlength));
+  } else {
+    assert_ok(hetinv_pathlength_create_steady(p->ctx, &p->pathlength));
+  }
+  assert_ok(hetinv_measurements_create(p->ctx, &p->set));
+  for (int e = 0; e < emitters; ++e) {
+    p->beam_x[e] = (e + 0.5) / emitters;
+    assert_ok(hetinv_emitter_create_ideal(p->truth, (double[]){p->beam_x[e], 0.5, -1},
+                                          (double[]){0, 0, 1}, &p->beams[e]));
+    assert_ok(hetinv_measurements_add(p->set, p->beams[e], p->reflect, p->pathlength, NULL));
+    if (!bins) assert_ok(hetinv_measurements_add(p->set, p->beams[e], p->transmit, p->pathlength, NULL));
+  }
+  p->count = hetinv_measurements_value_count(p->set);
+
+  /* The measured values: the truth rendered once with more photons (epoch 0). */
+  assert_ok(hetinv_estimator_create(p->ctx, &p->est));
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_PHOTONS, 2000));
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_BATCHES, 2));
+  double *values = calloc(p->count, sizeof *values);
+  assert_non_null(values);
+  assert_ok(hetinv_estimator_render(p->est, p->truth, p->set, values, NULL, NULL, p->count));
+  assert_ok(hetinv_measurements_set_values(p->set, values, NULL, p->count));
+  free(values);
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_PHOTONS, 100));
+
+  assert_ok(hetinv_param_map_create_coarse(p->initial, (int32_t[]){1, 1, 1}, SS, &p->coarse));
+  assert_ok(hetinv_param_map_create_identity(p->initial, SS, &p->identity));
+}
+
+static void problem_release(problem_t *p) {
+  hetinv_param_map_destroy(&p->coarse);
+  hetinv_param_map_destroy(&p->identity);
+  hetinv_estimator_destroy(&p->est);
+  hetinv_measurements_destroy(&p->set);
+  for (int e = 0; e < p->emitters; ++e) hetinv_emitter_destroy(&p->beams[e]);
+  hetinv_sensor_destroy(&p->reflect);
+  hetinv_sensor_destroy(&p->transmit);
+  hetinv_pathlength_destroy(&p->pathlength);
+  hetinv_medium_destroy(&p->truth);
+  hetinv_medium_destroy(&p->initial);
+  hetinv_context_destroy(&p->ctx);
+}
+
+/* The default problem of most tests: 2 x 1 x 2 voxels, two beams, steady. */
+static int problem_setup(void **state) {
+  problem_t *p = calloc(1, sizeof *p);
+  if (p == NULL) return -1;
+  problem_init(p, 7, 2, 2, 2, false);
+  *state = p;
+  return 0;
+}
+
+static int problem_teardown(void **state) {
+  problem_t *p = *state;
+  problem_release(p);
+  free(p);
+  return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Optimizer configurations. Built without cmocka asserts (they return the
+ * first failure), so that the tests can check them. */
+
+typedef struct setup {
+  int stages;
+  const hetinv_param_map_t *maps[2];
+  int32_t iterations[2];
+  double method, minibatch, window, interval;
+} setup_t;
+
+/* One coarse stage of 8 iterations, ADADELTA, every emitter, window 3. */
+static setup_t coarse_setup(const problem_t *p) {
+  return (setup_t){.stages = 1, .maps = {p->coarse}, .iterations = {8}, .method = HETINV_METHOD_ADADELTA,
+                   .minibatch = 0, .window = 3, .interval = 1};
+}
+
+/* Coarse (4 iterations) then per voxel (4 iterations). */
+static setup_t two_stage_setup(const problem_t *p) {
+  return (setup_t){.stages = 2, .maps = {p->coarse, p->identity}, .iterations = {4, 4},
+                   .method = HETINV_METHOD_ADADELTA, .minibatch = 0, .window = 3, .interval = 1};
+}
+
+static hetinv_result_t configure(hetinv_optimizer_t *opt, const setup_t *s) {
+  hetinv_result_t r = hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, SIGMA_HI);
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_METHOD, s->method);
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_MINIBATCH, s->minibatch);
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, s->window);
+  if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, s->interval);
+  for (int i = 0; r == HETINV_SUCCESS && i < s->stages; ++i) {
+    hetinv_stage_t st = {sizeof st, s->maps[i], s->iterations[i], NULL, NULL};
+    r = hetinv_optimizer_add_stage(opt, &st);
+  }
+  return r;
+}
+
+static hetinv_optimizer_t *make_optimizer(const problem_t *p, const setup_t *s) {
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  assert_ok(configure(opt, s));
+  return opt;
+}
+
+/* Everything a run leaves: π (last and averaged), losses, the result medium. */
+typedef struct outcome {
+  size_t k, loss_count, voxels;
+  double pi[MAX_K], avg[MAX_K];
+  double losses[MAX_LOSSES];
+  double grid[HETINV_PARAM_COUNT][MAX_VOXELS];
+} outcome_t;
+
+static void capture(const hetinv_optimizer_t *opt, size_t k, outcome_t *o) {
+  memset(o, 0, sizeof *o);
+  o->k = k;
+  assert_ok(hetinv_optimizer_get_pi(opt, 0, o->pi, k));
+  assert_ok(hetinv_optimizer_get_pi(opt, 1, o->avg, k));
+  const double *l = hetinv_optimizer_losses(opt, &o->loss_count);
+  assert_non_null(l);
+  assert_true(o->loss_count <= MAX_LOSSES);
+  memcpy(o->losses, l, o->loss_count * sizeof *l);
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_optimizer_result(opt, &m));
+  o->voxels = hetinv_medium_voxel_count(m);
+  assert_true(o->voxels <= MAX_VOXELS);
+  for (int q = 0; q < HETINV_PARAM_COUNT; ++q) memcpy(o->grid[q], hetinv_medium_grid(m, q), o->voxels * sizeof(double));
+  hetinv_medium_destroy(&m);
+}
+
+static void assert_same_outcome(const outcome_t *a, const outcome_t *b) {
+  assert_int_equal(a->k, b->k);
+  assert_int_equal(a->loss_count, b->loss_count);
+  assert_int_equal(a->voxels, b->voxels);
+  assert_memory_equal(a->pi, b->pi, sizeof a->pi);
+  assert_memory_equal(a->avg, b->avg, sizeof a->avg);
+  assert_memory_equal(a->losses, b->losses, sizeof a->losses);
+  assert_memory_equal(a->grid, b->grid, sizeof a->grid);
+}
+
+/* Runs a configuration to its end from scratch and captures it. */
+static void reference_run(const problem_t *p, const setup_t *s, size_t k, outcome_t *o) {
+  hetinv_optimizer_t *opt = make_optimizer(p, s);
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  capture(opt, k, o);
+  hetinv_optimizer_destroy(&opt);
+}
+
+/* Mean σs of a medium. */
+static double mean_sigma_s(const hetinv_medium_t *m) {
+  size_t v = hetinv_medium_voxel_count(m);
+  const double *g = hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S);
+  double s = 0.0;
+  for (size_t i = 0; i < v; ++i) s += g[i];
+  return s / (double)v;
+}
+
+/* ------------------------------------------------------------------------ */
+/* 1. Tunables and bounds. */
+
+static void tunables_have_documented_defaults_and_bounds(void **state) {
+  const problem_t *p = *state;
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  static const struct { hetinv_optimizer_param_t id; double def, lo, hi; } expect[] = {
+      {HETINV_OPTIMIZER_METHOD, HETINV_METHOD_ADADELTA, 0, HETINV_METHOD_COUNT_ - 1},
+      {HETINV_OPTIMIZER_DECAY, 0.95, 0, 0.999999},
+      {HETINV_OPTIMIZER_EPSILON, 0.01, 1e-12, 1},
+      {HETINV_OPTIMIZER_LEARNING_RATE, 0.01, 1e-300, 1e12},
+      {HETINV_OPTIMIZER_BETA1, 0.9, 0, 0.999999},
+      {HETINV_OPTIMIZER_BETA2, 0.999, 0, 0.999999},
+      {HETINV_OPTIMIZER_MINIBATCH, 0, 0, 2147483647.0},
+      {HETINV_OPTIMIZER_ITERATIONS, 100, 1, 1e15},
+      {HETINV_OPTIMIZER_TIME_BUDGET, 0, 0, 1e12},
+      {HETINV_OPTIMIZER_PLATEAU_WINDOW, 0, 0, 1e9},
+      {HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 0.01, 0, 1},
+      {HETINV_OPTIMIZER_AVERAGE_WINDOW, 20, 1, 4096},
+      {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10, 1, 1e15},
+  };
+  assert_int_equal(sizeof expect / sizeof expect[0], HETINV_OPTIMIZER_PARAM_COUNT_);
+  for (size_t i = 0; i < sizeof expect / sizeof expect[0]; ++i) {
+    double v = -1, lo = -1, hi = -1;
+    assert_ok(hetinv_optimizer_get_param(opt, expect[i].id, &v));
+    assert_true(v == expect[i].def);
+    assert_ok(hetinv_optimizer_param_bounds(expect[i].id, &lo, &hi));
+    assert_true(lo == expect[i].lo && hi == expect[i].hi);
+    assert_true(lo <= v && v <= hi);
+    /* Both bounds are accepted, and read back. */
+    assert_ok(hetinv_optimizer_set_param(opt, expect[i].id, lo));
+    assert_ok(hetinv_optimizer_get_param(opt, expect[i].id, &v));
+    assert_true(v == lo);
+    assert_ok(hetinv_optimizer_set_param(opt, expect[i].id, hi));
+    assert_ok(hetinv_optimizer_get_param(opt, expect[i].id, &v));
+    assert_true(v == hi);
+  }
+  assert_ok(hetinv_optimizer_param_bounds(HETINV_OPTIMIZER_DECAY, NULL, NULL));
+  double lo = 7;
+  assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(-1, &lo, NULL));
+  assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(HETINV_OPTIMIZER_PARAM_COUNT_, &lo, NULL));
+  assert_message_contains("13");
+  assert_true(lo == 7);
+  hetinv_optimizer_destroy(&opt);
+}
+
+static void tunables_reject_bad_values_naming_them(void **state) {
+  const problem_t *p = *state;
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  static const struct { hetinv_optimizer_param_t id; double value; const char *name, *shown; } bad[] = {
+      {HETINV_OPTIMIZER_METHOD, 4, "HETINV_OPTIMIZER_METHOD", "is 4;"},
+      {HETINV_OPTIMIZER_METHOD, -1, "HETINV_OPTIMIZER_METHOD", "is -1;"},
+      {HETINV_OPTIMIZER_METHOD, 1.5, "HETINV_OPTIMIZER_METHOD", "is 1.5;"},
+      {HETINV_OPTIMIZER_DECAY, 1.0, "HETINV_OPTIMIZER_DECAY", "is 1;"},
+      {HETINV_OPTIMIZER_DECAY, -0.1, "HETINV_OPTIMIZER_DECAY", "is -0.1;"},
+      {HETINV_OPTIMIZER_DECAY, NaN, "HETINV_OPTIMIZER_DECAY", "is nan;"},
+      {HETINV_OPTIMIZER_EPSILON, 0, "HETINV_OPTIMIZER_EPSILON", "is 0;"},
+      {HETINV_OPTIMIZER_EPSILON, 1.5, "HETINV_OPTIMIZER_EPSILON", "is 1.5;"},
+      {HETINV_OPTIMIZER_LEARNING_RATE, 0, "HETINV_OPTIMIZER_LEARNING_RATE", "is 0;"},
+      {HETINV_OPTIMIZER_LEARNING_RATE, Inf, "HETINV_OPTIMIZER_LEARNING_RATE", "is inf;"},
+      {HETINV_OPTIMIZER_BETA1, 1, "HETINV_OPTIMIZER_BETA1", "is 1;"},
+      {HETINV_OPTIMIZER_BETA2, -Inf, "HETINV_OPTIMIZER_BETA2", "is -inf;"},
+      {HETINV_OPTIMIZER_MINIBATCH, 2.5, "HETINV_OPTIMIZER_MINIBATCH", "is 2.5;"},
+      {HETINV_OPTIMIZER_MINIBATCH, -1, "HETINV_OPTIMIZER_MINIBATCH", "is -1;"},
+      {HETINV_OPTIMIZER_MINIBATCH, 2147483648.0, "HETINV_OPTIMIZER_MINIBATCH", "is 2147483648;"},
+      {HETINV_OPTIMIZER_ITERATIONS, 0, "HETINV_OPTIMIZER_ITERATIONS", "is 0;"},
+      {HETINV_OPTIMIZER_ITERATIONS, 10.25, "HETINV_OPTIMIZER_ITERATIONS", "is 10.25;"},
+      {HETINV_OPTIMIZER_TIME_BUDGET, -1, "HETINV_OPTIMIZER_TIME_BUDGET", "is -1;"},
+      {HETINV_OPTIMIZER_PLATEAU_WINDOW, 0.5, "HETINV_OPTIMIZER_PLATEAU_WINDOW", "is 0.5;"},
+      {HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 1.01, "HETINV_OPTIMIZER_PLATEAU_TOLERANCE", "is 1.01;"},
+      {HETINV_OPTIMIZER_AVERAGE_WINDOW, 0, "HETINV_OPTIMIZER_AVERAGE_WINDOW", "is 0;"},
+      {HETINV_OPTIMIZER_AVERAGE_WINDOW, 4097, "HETINV_OPTIMIZER_AVERAGE_WINDOW", "is 4097;"},
+      {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 0, "HETINV_OPTIMIZER_CHECKPOINT_INTERVAL", "is 0;"},
+  };
+  for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+    double before = -1, after = -2;
+    assert_ok(hetinv_optimizer_get_param(opt, bad[i].id, &before));
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_set_param(opt, bad[i].id, bad[i].value));
+    assert_message_contains(bad[i].name);
+    assert_message_contains(bad[i].shown);
+    assert_int_equal(hetinv_context_last_error_code(NULL), HETINV_ERROR_INVALID_ARGUMENT);
+    assert_ok(hetinv_optimizer_get_param(opt, bad[i].id, &after));
+    assert_true(before == after);
+  }
+  /* Integral tunables say so; the range is printed exactly. */
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_MINIBATCH, 0.5));
+  assert_message_contains("an integer in [0, 2147483647]");
+  /* Unknown tunables. */
+  double v = 0;
+  assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, -1, 0));
+  assert_message_contains("-1");
+  assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PARAM_COUNT_, 0));
+  assert_message_contains("13");
+  assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_get_param(opt, 99, &v));
+  assert_message_contains("99");
+  hetinv_optimizer_destroy(&opt);
+}
+
+static void bounds_are_validated(void **state) {
+  const problem_t *p = *state;
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  static const struct { hetinv_param_t param; double lo, hi; const char *name; } bad[] = {
+      {HETINV_PARAM_SIGMA_S, 2, 2, "sigma_s"},       /* lo = hi */
+      {HETINV_PARAM_SIGMA_S, 3, 2, "sigma_s"},       /* lo > hi */
+      {HETINV_PARAM_SIGMA_A, -0.5, 2, "sigma_a"},    /* negative σ */
+      {HETINV_PARAM_SIGMA_A, -Inf, 2, "sigma_a"},
+      {HETINV_PARAM_SIGMA_A, Inf, Inf, "sigma_a"},
+      {HETINV_PARAM_SIGMA_S, NaN, 2, "sigma_s"},
+      {HETINV_PARAM_SIGMA_S, 1, NaN, "sigma_s"},
+      {HETINV_PARAM_G, -1, 0.5, "g"},                /* g outside (-1, 1) */
+      {HETINV_PARAM_G, -0.5, 1, "g"},
+      {HETINV_PARAM_G, -0.5, Inf, "g"},
+      {HETINV_PARAM_G, 0.5, 0.2, "g"},
+  };
+  for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_set_bounds(opt, bad[i].param, bad[i].lo, bad[i].hi));
+    assert_message_contains(bad[i].name);
+    assert_message_contains("lo < hi");
+  }
+  assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_bounds(opt, HETINV_PARAM_COUNT, 0, 1));
+  assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_bounds(opt, -1, 0, 1));
+  /* Valid ones, an infinite σ bound included. */
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_A, 0, Inf));
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 0, 1e-9));
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_G, -0.999, 0.999));
+  hetinv_optimizer_destroy(&opt);
+}
+
+/* Nothing that shapes the run can change once it has started. */
+static void configuration_is_frozen_once_run(void **state) {
+  const problem_t *p = *state;
+  setup_t s = coarse_setup(p);
+  s.iterations[0] = 1;
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_DECAY, 0.5));
+  assert_message_contains("HETINV_OPTIMIZER_DECAY");
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 3));
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 0, 5));
+  assert_message_contains("sigma_s");
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL};
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_add_stage(opt, &st));
+  double v = 0;
+  assert_ok(hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, &v));
+  assert_true(v == 0.95);
+  hetinv_optimizer_destroy(&opt);
+}
+
+static void stage_and_create_errors(void **state) {
+  const problem_t *p = *state;
+  hetinv_optimizer_t *opt = NULL;
+  /* An empty set cannot be optimized. */
+  hetinv_measurements_t *empty = NULL;
+  assert_ok(hetinv_measurements_create(p->ctx, &empty));
+  static char dummy;
+  opt = (hetinv_optimizer_t *)(void *)&dummy;
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_create(p->ctx, empty, p->initial, &opt));
+  assert_null(opt);
+  hetinv_measurements_destroy(&empty);
+
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL};
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
+  assert_message_contains("size");
+  st.size = sizeof st;
+  st.iterations = -1;
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
+  assert_message_contains("-1");
+  st.iterations = 1;
+  st.map = NULL;
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
+  /* A map of another grid. */
+  hetinv_medium_t *other = make_medium(p->ctx, (int32_t[]){3, 1, 3}, 1.0);
+  hetinv_param_map_t *map = NULL;
+  assert_ok(hetinv_param_map_create_identity(other, SS, &map));
+  st.map = map;
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
+  assert_message_contains("grid");
+  /* No stage: nothing to run, nothing to read. */
+  double pi[4];
+  hetinv_stop_reason_t why = 42;
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_NONE);
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_get_pi(opt, 0, pi, 1));
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_save(opt, ht_path("never")));
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_resume(opt, "/nonexistent"));
+  size_t n = 99;
+  assert_null(hetinv_optimizer_losses(opt, &n));
+  assert_int_equal(n, 0);
+  /* The result before any run is the initial medium. */
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_optimizer_result(opt, &m));
+  assert_true(hetinv_medium_is_committed(m));
+  assert_memory_equal(hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S), hetinv_medium_grid(p->initial, HETINV_PARAM_SIGMA_S),
+                      4 * sizeof(double));
+  hetinv_medium_destroy(&m);
+  /* get_pi checks its count. */
+  st.map = p->coarse;
+  assert_ok(hetinv_optimizer_add_stage(opt, &st));
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_get_pi(opt, 0, pi, 4));
+  assert_message_contains("4");
+  hetinv_optimizer_destroy(&opt);
+  hetinv_param_map_destroy(&map);
+  hetinv_medium_destroy(&other);
+}
+
+/* ------------------------------------------------------------------------ */
+/* 2. One step of every method against a hand computation (white-box). */
+
+typedef struct hand {
+  hetinv_optimizer_t opt;
+  double pi[3], acc1[3], acc2[3], grad[3], scale[3], lo[3], hi[3];
+} hand_t;
+
+/* Three entries: σs-like (box [1, 10], scale 9), another (its frozen or
+ * bounded twin) and a g-like one (box [-0.99, 0.99], scale 1.98). */
+static void hand_init(hand_t *h, int method) {
+  memset(h, 0, sizeof *h);
+  hetinv_optimizer_t *o = &h->opt;
+  o->param[HETINV_OPTIMIZER_METHOD] = method;
+  o->param[HETINV_OPTIMIZER_DECAY] = 0.9;
+  o->param[HETINV_OPTIMIZER_EPSILON] = 0.01;
+  o->param[HETINV_OPTIMIZER_LEARNING_RATE] = 0.1;
+  o->param[HETINV_OPTIMIZER_BETA1] = 0.5;
+  o->param[HETINV_OPTIMIZER_BETA2] = 0.75;
+  o->k = 3;
+  o->pi = h->pi, o->acc1 = h->acc1, o->acc2 = h->acc2, o->grad = h->grad;
+  o->scale = h->scale, o->lo_k = h->lo, o->hi_k = h->hi;
+  const double pi[3] = {5, 5, 0.2}, scale[3] = {9, 9, 1.98}, lo[3] = {1, 1, -0.99}, hi[3] = {10, 10, 0.99};
+  memcpy(h->pi, pi, sizeof pi);
+  memcpy(h->scale, scale, sizeof scale);
+  memcpy(h->lo, lo, sizeof lo);
+  memcpy(h->hi, hi, sizeof hi);
+}
+
+static void adadelta_steps_match_hand_computation(void **state) {
+  (void)state;
+  hand_t h;
+  hand_init(&h, HETINV_METHOD_ADADELTA);
+  const uint8_t frozen[3] = {0, 1, 0};
+  /* Step 1, gradient (2, 7, 0), entry 1 frozen:
+   *   E[g²] = 0.1·2² = 0.4;  ε = (0.01·9)² = 0.0081;
+   *   δ = sqrt(0 + 0.0081) / sqrt(0.4) · 2 = 0.09·2/sqrt(0.4) = 0.9/sqrt(10);
+   *   E[δ²] = 0.1·δ² = 0.0081. Entry 2 (g = 0, E[g²] = 0) does not move. */
+  h.grad[0] = 2, h.grad[1] = 7, h.grad[2] = 0;
+  double rms = hv_method_step(&h.opt, frozen);
+  double d1 = 0.9 / sqrt(10.0);
+  assert_close(h.acc1[0], 0.4, 1e-15);
+  assert_close(h.acc2[0], 0.0081, 1e-15);
+  assert_close(h.pi[0], 5 - d1, 1e-14);
+  assert_true(h.pi[1] == 5 && h.acc1[1] == 0 && h.acc2[1] == 0); /* frozen: untouched */
+  assert_true(h.pi[2] == 0.2 && h.acc1[2] == 0 && h.acc2[2] == 0);
+  /* RMS over the two moving entries of δ/s: sqrt(((d1/9)² + 0)/2). */
+  assert_close(rms, sqrt((d1 / 9) * (d1 / 9) / 2), 1e-15);
+  /* Step 2, gradient (1, 7, -3):
+   *   entry 0: E[g²] = 0.9·0.4 + 0.1·1 = 0.46; δ = sqrt(0.0081 + 0.0081)/sqrt(0.46)·1;
+   *   entry 2: E[g²] = 0.1·9 = 0.9, ε = (0.0198)²; δ = 0.0198/sqrt(0.9)·(−3), a step up. */
+  h.grad[0] = 1, h.grad[2] = -3;
+  rms = hv_method_step(&h.opt, frozen);
+  double d2 = sqrt(0.0162 / 0.46), d2g = 0.0198 / sqrt(0.9) * -3;
+  assert_close(h.acc1[0], 0.46, 1e-15);
+  assert_close(h.acc2[0], 0.9 * 0.0081 + 0.1 * d2 * d2, 1e-15);
+  assert_close(h.pi[0], 5 - d1 - d2, 1e-14);
+  assert_close(h.pi[2], 0.2 - d2g, 1e-14);
+  assert_true(h.pi[1] == 5);
+  assert_close(rms, sqrt(((d2 / 9) * (d2 / 9) + (d2g / 1.98) * (d2g / 1.98)) / 2), 1e-15);
+}
+
+/* SGD, AdaGrad and Adam in scaled coordinates, with projection. */
+static void other_methods_step_as_documented(void **state) {
+  (void)state;
+  hand_t h;
+  /* SGD: δ = rate·s²·g = 0.1·81·2 = 16.2: far below the box, projected to 1. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.grad[0] = 2, h.grad[1] = -0.05, h.grad[2] = 0;
+  double rms = hv_method_step(&h.opt, NULL);
+  assert_true(h.pi[0] == 1.0);
+  assert_close(h.pi[1], 5 + 0.1 * 81 * 0.05, 1e-14);
+  assert_true(h.pi[2] == 0.2);
+  assert_close(rms, sqrt(((16.2 / 9) * (16.2 / 9) + (0.405 / 9) * (0.405 / 9)) / 3), 1e-14);
+  /* AdaGrad: Σg² = 4, δ = 0.1·9·2/2 = 0.9; then Σg² = 4 + 1, δ = 0.1·9·1/sqrt(5). */
+  hand_init(&h, HETINV_METHOD_ADAGRAD);
+  h.grad[0] = 2;
+  hv_method_step(&h.opt, NULL);
+  assert_close(h.pi[0], 4.1, 1e-14);
+  assert_true(h.pi[1] == 5 && h.pi[2] == 0.2); /* no gradient yet: no step, no NaN */
+  h.grad[0] = 1;
+  hv_method_step(&h.opt, NULL);
+  assert_close(h.pi[0], 4.1 - 0.9 / sqrt(5.0), 1e-14);
+  /* Adam (β1 = 0.5, β2 = 0.75), t = stage_iteration + 1:
+   *   t = 1, g = 2: m = 1, v = 1, m̂ = 2, v̂ = 4, δ = 0.1·9·2/2 = 0.9;
+   *   t = 2, g = 1: m = 1, v = 1, m̂ = 1/0.75, v̂ = 1/0.4375, δ = 0.9·(4/3)·sqrt(0.4375). */
+  hand_init(&h, HETINV_METHOD_ADAM);
+  h.grad[0] = 2;
+  h.opt.stage_iteration = 0;
+  hv_method_step(&h.opt, NULL);
+  assert_close(h.acc1[0], 1.0, 1e-15);
+  assert_close(h.acc2[0], 1.0, 1e-15);
+  assert_close(h.pi[0], 4.1, 1e-14);
+  h.grad[0] = 1;
+  h.opt.stage_iteration = 1;
+  hv_method_step(&h.opt, NULL);
+  assert_close(h.pi[0], 4.1 - 0.9 * (4.0 / 3.0) * sqrt(0.4375), 1e-14);
+  assert_true(h.pi[1] == 5 && h.pi[2] == 0.2);
+}
+
+/* ------------------------------------------------------------------------ */
+/* 2. Every method lowers the loss: σs of a uniform medium from 8 toward 3. */
+
+static void every_method_moves_sigma_s_toward_the_truth(void **state) {
+  const problem_t *p = *state;
+  static const struct { int method; double rate; } methods[] = {
+      {HETINV_METHOD_ADADELTA, 0}, {HETINV_METHOD_SGD, 0}, {HETINV_METHOD_ADAGRAD, 0.1}, {HETINV_METHOD_ADAM, 0.05}};
+  for (size_t i = 0; i < sizeof methods / sizeof methods[0]; ++i) {
+    setup_t s = coarse_setup(p);
+    s.method = methods[i].method;
+    s.iterations[0] = 25;
+    s.window = 5;
+    hetinv_optimizer_t *opt = make_optimizer(p, &s);
+    if (methods[i].method == HETINV_METHOD_ADADELTA) {
+      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 0.05));
+    } else if (methods[i].method == HETINV_METHOD_SGD) {
+      /* SGD needs a rate for the loss's units: about 1/(s²·|g₀|) of the box per step. */
+      double grad = 0.0;
+      hetinv_medium_t *start = NULL;
+      assert_ok(hetinv_medium_clone(p->initial, &start));
+      assert_ok(hetinv_medium_commit(start));
+      assert_ok(hetinv_estimator_loss_gradient(p->est, start, p->set, p->coarse, NULL, NULL, &grad, 1));
+      hetinv_medium_destroy(&start);
+      assert_true(grad > 0); /* too much scattering: the loss falls with σs */
+      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_LEARNING_RATE, 0.5 / (81 * grad)));
+    } else {
+      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_LEARNING_RATE, methods[i].rate));
+    }
+    hetinv_stop_reason_t why = HETINV_STOP_NONE;
+    assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+    assert_int_equal(why, HETINV_STOP_COMPLETED);
+    hetinv_medium_t *m = NULL;
+    assert_ok(hetinv_optimizer_result(opt, &m));
+    double sigma = mean_sigma_s(m);
+    size_t n = 0;
+    const double *loss = hetinv_optimizer_losses(opt, &n);
+    assert_int_equal(n, 25);
+    double first = (loss[0] + loss[1] + loss[2]) / 3, last = (loss[22] + loss[23] + loss[24]) / 3;
+    if (!(fabs(sigma - TRUTH_SIGMA_S) < 0.5 * fabs(START_SIGMA_S - TRUTH_SIGMA_S)) || !(last < first)) {
+      print_error("method %d: sigma_s %g (start %g, truth %g), loss %g -> %g\n", methods[i].method, sigma,
+                  START_SIGMA_S, TRUTH_SIGMA_S, first, last);
+      fail();
+    }
+    /* σa and g were not free: untouched. */
+    assert_memory_equal(hetinv_medium_grid(m, HETINV_PARAM_SIGMA_A), hetinv_medium_grid(p->initial, HETINV_PARAM_SIGMA_A),
+                        4 * sizeof(double));
+    assert_memory_equal(hetinv_medium_grid(m, HETINV_PARAM_G), hetinv_medium_grid(p->initial, HETINV_PARAM_G),
+                        4 * sizeof(double));
+    hetinv_medium_destroy(&m);
+    hetinv_optimizer_destroy(&opt);
+  }
+}
+
+/* ------------------------------------------------------------------------ */
+/* 3. Box projection, frozen entries, masked values. */
+
+typedef struct pi_log {
+  const hetinv_optimizer_t *opt;
+  int count;
+  double pi[MAX_LOSSES][MAX_K], avg[MAX_LOSSES][MAX_K];
+  hetinv_progress_t progress[MAX_LOSSES];
+} pi_log_t;
+
+/* Records π (last and averaged) and the progress after every iteration. */
+static int log_pi(const hetinv_progress_t *progress, void *user) {
+  pi_log_t *log = user;
+  if (log->count >= MAX_LOSSES) return 1;
+  size_t k = log->opt->k; /* white-box: the current stage's size */
+  if (hetinv_optimizer_get_pi(log->opt, 0, log->pi[log->count], k) != HETINV_SUCCESS) return 1;
+  if (hetinv_optimizer_get_pi(log->opt, 1, log->avg[log->count], k) != HETINV_SUCCESS) return 1;
+  log->progress[log->count] = *progress;
+  ++log->count;
+  return 0;
+}
+
+static void iterates_never_leave_the_box(void **state) {
+  const problem_t *p = *state;
+  /* SGD with a huge rate bounces between the bounds; ADADELTA walks into one. */
+  for (int method = HETINV_METHOD_ADADELTA; method <= HETINV_METHOD_SGD; ++method) {
+    setup_t s = two_stage_setup(p);
+    s.method = method;
+    s.iterations[0] = s.iterations[1] = 6;
+    hetinv_optimizer_t *opt = make_optimizer(p, &s);
+    assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 4.0, 4.5));
+    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_LEARNING_RATE, 1e6));
+    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 1));
+    pi_log_t *log = calloc(1, sizeof *log);
+    log->opt = opt;
+    assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+    assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+    assert_int_equal(log->count, 12);
+    bool at_bound = false;
+    for (int i = 0; i < log->count; ++i) {
+      size_t k = log->progress[i].stage == 0 ? 1 : 4;
+      for (size_t j = 0; j < k; ++j) {
+        assert_true(log->pi[i][j] >= 4.0 && log->pi[i][j] <= 4.5);
+        assert_true(log->avg[i][j] >= 4.0 && log->avg[i][j] <= 4.5);
+        at_bound |= log->pi[i][j] == 4.0 || log->pi[i][j] == 4.5;
+      }
+    }
+    assert_true(at_bound); /* the projection was exercised */
+    hetinv_medium_t *m = NULL;
+    assert_ok(hetinv_optimizer_result(opt, &m));
+    for (size_t v = 0; v < 4; ++v) {
+      double x = hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S)[v];
+      assert_true(x >= 4.0 && x <= 4.5);
+    }
+    hetinv_medium_destroy(&m);
+    free(log);
+    hetinv_optimizer_destroy(&opt);
+  }
+}
+
+static void frozen_entries_never_move(void **state) {
+  const problem_t *p = *state;
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, SIGMA_HI));
+  const uint8_t frozen[4] = {1, 0, 0, 1};
+  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL};
+  assert_ok(hetinv_optimizer_add_stage(opt, &st));
+  pi_log_t *log = calloc(1, sizeof *log);
+  log->opt = opt;
+  assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_int_equal(log->count, 6);
+  for (int i = 0; i < log->count; ++i) {
+    assert_true(log->pi[i][0] == START_SIGMA_S && log->pi[i][3] == START_SIGMA_S);
+    assert_true(log->avg[i][0] == START_SIGMA_S && log->avg[i][3] == START_SIGMA_S);
+  }
+  assert_true(log->pi[5][1] != START_SIGMA_S && log->pi[5][2] != START_SIGMA_S);
+  free(log);
+  hetinv_optimizer_destroy(&opt);
+}
+
+/* All values left out: the loss is 0, so is the gradient, and π stays. */
+static void masked_values_give_no_gradient(void **state) {
+  const problem_t *p = *state;
+  for (int method = 0; method < HETINV_METHOD_COUNT_; ++method) {
+    hetinv_optimizer_t *opt = NULL;
+    assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_METHOD, method));
+    uint8_t *mask = calloc(p->count, 1);
+    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask};
+    assert_ok(hetinv_optimizer_add_stage(opt, &st));
+    free(mask); /* copied */
+    assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+    double pi[4], avg[4];
+    assert_ok(hetinv_optimizer_get_pi(opt, 0, pi, 4));
+    assert_ok(hetinv_optimizer_get_pi(opt, 1, avg, 4));
+    for (int j = 0; j < 4; ++j) assert_true(pi[j] == START_SIGMA_S && avg[j] == START_SIGMA_S);
+    size_t n = 0;
+    const double *loss = hetinv_optimizer_losses(opt, &n);
+    assert_int_equal(n, 3);
+    for (size_t i = 0; i < n; ++i) assert_true(loss[i] == 0.0);
+    hetinv_optimizer_destroy(&opt);
+  }
+}
+
+/* ------------------------------------------------------------------------ */
+/* 4. Minibatches. */
+
+static void run_minibatch(const problem_t *p, outcome_t *o) {
+  setup_t s = coarse_setup(p);
+  s.minibatch = 2;
+  s.iterations[0] = 6;
+  reference_run(p, &s, 1, o);
+}
+
+static void minibatches_are_reproducible(void **state) {
+  (void)state;
+  problem_t a, b;
+  problem_init(&a, 11, 2, 2, 4, false);
+  problem_init(&b, 12, 2, 2, 4, false);
+  outcome_t *x = calloc(3, sizeof *x);
+  run_minibatch(&a, &x[0]);
+  run_minibatch(&a, &x[1]);
+  assert_same_outcome(&x[0], &x[1]);
+  run_minibatch(&b, &x[2]);
+  assert_memory_not_equal(x[0].losses, x[2].losses, 6 * sizeof(double));
+  /* The minibatch loss is scaled to the whole set: comparable with a full batch. */
+  setup_t s = coarse_setup(&a);
+  s.iterations[0] = 1;
+  outcome_t *full = calloc(1, sizeof *full);
+  reference_run(&a, &s, 1, full);
+  assert_true(x[0].losses[0] > 0.2 * full->losses[0] && x[0].losses[0] < 5 * full->losses[0]);
+  free(full);
+  /* Every minibatch of 2 out of 4 emitters is drawn without replacement, and
+   * over many iterations every emitter is drawn. */
+  int32_t picked[4], scratch[4], seen[4] = {0};
+  for (int64_t it = 0; it < 64; ++it) {
+    hv_minibatch_pick(5, it, 4, 2, picked, scratch);
+    assert_true(picked[0] >= 0 && picked[0] < picked[1] && picked[1] < 4);
+    ++seen[picked[0]], ++seen[picked[1]];
+  }
+  for (int g = 0; g < 4; ++g) assert_true(seen[g] > 8);
+  free(x);
+  problem_release(&a);
+  problem_release(&b);
+}
+
+/* ------------------------------------------------------------------------ */
+/* 5. Stopping rules and progress. */
+
+typedef struct stopper {
+  int64_t stop_at;
+  int calls;
+  hetinv_progress_t last;
+} stopper_t;
+
+static int stop_at(const hetinv_progress_t *progress, void *user) {
+  stopper_t *s = user;
+  ++s->calls;
+  s->last = *progress;
+  return progress->iteration == s->stop_at;
+}
+
+static void stages_run_their_counts_with_right_progress(void **state) {
+  const problem_t *p = *state;
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 4));
+  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL}, b = {sizeof b, p->identity, 0, NULL, NULL};
+  assert_ok(hetinv_optimizer_add_stage(opt, &a));
+  assert_ok(hetinv_optimizer_add_stage(opt, &b));
+  pi_log_t *log = calloc(1, sizeof *log);
+  log->opt = opt;
+  assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  assert_int_equal(log->count, 7);
+  size_t n = 0;
+  const double *loss = hetinv_optimizer_losses(opt, &n);
+  assert_int_equal(n, 7);
+  double elapsed = 0;
+  for (int i = 0; i < 7; ++i) {
+    const hetinv_progress_t *q = &log->progress[i];
+    assert_int_equal(q->size, sizeof(hetinv_progress_t));
+    assert_int_equal(q->stage, i < 3 ? 0 : 1);
+    assert_int_equal(q->stage_count, 2);
+    assert_int_equal(q->iteration, i + 1);
+    assert_int_equal(q->stage_iteration, i < 3 ? i + 1 : i - 2);
+    assert_int_equal(q->stage_iterations, i < 3 ? 3 : 4);
+    assert_int_equal(q->total_iterations, 7);
+    assert_true(q->loss == loss[i] && q->loss > 0);
+    assert_true(q->step > 0 && isfinite(q->step));
+    assert_true(q->elapsed >= elapsed);
+    elapsed = q->elapsed;
+  }
+  /* The run is over: another run() does nothing more. */
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  assert_int_equal(log->count, 7);
+  free(log);
+  hetinv_optimizer_destroy(&opt);
+}
+
+static void iterations_default_is_100(void **state) {
+  const problem_t *p = *state;
+  hetinv_estimator_t *est = NULL;
+  assert_ok(hetinv_estimator_create(p->ctx, &est));
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, 8));
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL};
+  assert_ok(hetinv_optimizer_add_stage(opt, &st));
+  stopper_t s = {.stop_at = -1};
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &s));
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_ok(hetinv_optimizer_run(opt, est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  assert_int_equal(s.calls, 100);
+  assert_int_equal(s.last.stage_iterations, 100);
+  assert_int_equal(s.last.total_iterations, 100);
+  /* The estimator's epoch is restored. */
+  double epoch = -1;
+  assert_ok(hetinv_estimator_get_param(est, HETINV_ESTIMATOR_EPOCH, &epoch));
+  assert_true(epoch == 0);
+  hetinv_optimizer_destroy(&opt);
+  hetinv_estimator_destroy(&est);
+}
+
+static void a_plateau_ends_a_stage_early(void **state) {
+  const problem_t *p = *state;
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  /* Tolerance 1: no decrease can beat it, so each stage ends after 2·window. */
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 3));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 1));
+  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL}, b = {sizeof b, p->identity, 50, NULL, NULL};
+  assert_ok(hetinv_optimizer_add_stage(opt, &a));
+  assert_ok(hetinv_optimizer_add_stage(opt, &b));
+  pi_log_t *log = calloc(1, sizeof *log);
+  log->opt = opt;
+  assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  assert_int_equal(log->count, 12);
+  assert_int_equal(log->progress[5].stage, 0);
+  assert_int_equal(log->progress[6].stage, 1);
+  assert_int_equal(log->progress[6].stage_iteration, 1);
+  assert_int_equal(log->progress[11].total_iterations, 100); /* plateau stages count in full */
+  free(log);
+  hetinv_optimizer_destroy(&opt);
+
+  /* Tolerance 0 and a loss that cannot fall (all values masked, loss 0):
+   * 0 >= 0, a plateau after 2·window. */
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 2));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 0));
+  uint8_t *mask = calloc(p->count, 1);
+  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask};
+  assert_ok(hetinv_optimizer_add_stage(opt, &c));
+  free(mask);
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  size_t n = 0;
+  hetinv_optimizer_losses(opt, &n);
+  assert_int_equal(n, 4);
+  hetinv_optimizer_destroy(&opt);
+}
+
+static void a_time_budget_stops_the_run(void **state) {
+  const problem_t *p = *state;
+  setup_t s = coarse_setup(p);
+  s.iterations[0] = 50;
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  /* Any iteration takes longer than a nanosecond: one iteration, then stop. */
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_TIME_BUDGET, 1e-9));
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_TIME_BUDGET);
+  size_t n = 0;
+  hetinv_optimizer_losses(opt, &n);
+  assert_int_equal(n, 1);
+  /* The budget is spent: a second run stops at once. */
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_TIME_BUDGET);
+  hetinv_optimizer_losses(opt, &n);
+  assert_int_equal(n, 1);
+  hetinv_optimizer_destroy(&opt);
+}
+
+static void the_callback_stops_and_run_continues(void **state) {
+  const problem_t *p = *state;
+  setup_t s = two_stage_setup(p);
+  outcome_t *o = calloc(2, sizeof *o);
+  reference_run(p, &s, 4, &o[0]);
+
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  stopper_t st = {.stop_at = 3};
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_CALLBACK);
+  assert_int_equal(st.calls, 3);
+  size_t n = 0;
+  hetinv_optimizer_losses(opt, &n);
+  assert_int_equal(n, 3);
+  /* Stop again exactly at the stage boundary, then run to the end. */
+  st.stop_at = 4;
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_CALLBACK);
+  assert_int_equal(st.last.stage, 0);
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  assert_int_equal(st.calls, 8);
+  assert_int_equal(st.last.iteration, 8);
+  /* The interrupted run is the uninterrupted one. */
+  capture(opt, 4, &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  free(o);
+  hetinv_optimizer_destroy(&opt);
+}
+
+/* ------------------------------------------------------------------------ */
+/* 6. Multi-resolution: stage 2 starts from stage 1's averaged result. */
+
+static void the_next_stage_starts_from_the_average(void **state) {
+  const problem_t *p = *state;
+  setup_t s = two_stage_setup(p);
+  s.iterations[0] = 6;
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  pi_log_t *log = calloc(1, sizeof *log);
+  log->opt = opt;
+  assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_int_equal(log->count, 10);
+  assert_int_equal(log->progress[5].stage, 0);
+  assert_int_equal(log->progress[6].stage, 1);
+  double avg0 = log->avg[5][0];
+  /* The average of the last 3 iterates of stage 1. */
+  assert_close(avg0, (log->pi[3][0] + log->pi[4][0] + log->pi[5][0]) / 3, 1e-12);
+  assert_true(avg0 != log->pi[5][0]);
+  /* One ADADELTA step from it: |δ| = EPSILON·s/sqrt(1 - γ) exactly, for g ≠ 0. */
+  double step = 0.01 * (SIGMA_HI - SIGMA_LO) / sqrt(1 - 0.95);
+  for (int j = 0; j < 4; ++j) {
+    double moved = fabs(log->pi[6][j] - avg0);
+    assert_true(moved == 0 || fabs(moved - step) < 1e-9);
+  }
+  /* The final result is stage 2's average over the 2 x 1 x 2 grid. */
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_optimizer_result(opt, &m));
+  for (int j = 0; j < 4; ++j) {
+    double expect = (log->pi[7][j] + log->pi[8][j] + log->pi[9][j]) / 3;
+    assert_close(hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S)[j], expect, 1e-12);
+  }
+  hetinv_medium_destroy(&m);
+  free(log);
+  hetinv_optimizer_destroy(&opt);
+}
+
+/* ------------------------------------------------------------------------ */
+/* 7. Checkpoints: kill a run half-way, resume it, compare bitwise. */
+
+static int kill_at(const hetinv_progress_t *progress, void *user) {
+  const int64_t *at = user;
+  if (progress->iteration == *at) raise(SIGKILL); /* really die: no cleanup, no final checkpoint */
+  return 0;
+}
+
+/* Runs a configuration with checkpoints to `path` in a child process that
+ * kills itself after iteration `at`. The child calls nothing of cmocka and
+ * leaves by _exit only. */
+static void run_killed_child(const problem_t *p, const setup_t *s, const char *path, int64_t at) {
+  hetinv_optimizer_t *opt = make_optimizer(p, s);
+  assert_ok(hetinv_optimizer_set_checkpoint(opt, path));
+  assert_ok(hetinv_optimizer_set_progress(opt, kill_at, &at));
+  fflush(stdout);
+  fflush(stderr);
+  pid_t pid = fork();
+  assert_true(pid >= 0);
+  if (pid == 0) {
+    hetinv_optimizer_run(opt, p->est, NULL);
+    _exit(3); /* not reached */
+  }
+  int status = 0;
+  assert_int_equal(waitpid(pid, &status, 0), pid);
+  if (!(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL)) {
+    print_error("the child was not killed by SIGKILL (status %d)\n", status);
+    fail();
+  }
+  hetinv_optimizer_destroy(&opt); /* the parent's copy, never run */
+}
+
+/* A fresh optimizer resumes `path`, whose run had `done` iterations, and
+ * runs to the end. */
+static void resume_and_finish(const problem_t *p, const setup_t *s, const char *path, size_t done,
+                              const outcome_t *reference, outcome_t *o) {
+  hetinv_optimizer_t *opt = make_optimizer(p, s);
+  assert_ok(hetinv_optimizer_resume(opt, path));
+  size_t n = 0;
+  const double *loss = hetinv_optimizer_losses(opt, &n);
+  assert_int_equal(n, done);
+  assert_memory_equal(loss, reference->losses, done * sizeof *loss);
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_resume(opt, path));
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  capture(opt, reference->k, o);
+  hetinv_optimizer_destroy(&opt);
+}
+
+/* No file but the checkpoint in the directory: every replacement was a rename. */
+static void assert_only_checkpoints_left(int expected) {
+  assert_int_equal(ht_tmpdir_entry_count(), expected);
+  DIR *d = opendir(ht_path("."));
+  assert_non_null(d);
+  for (struct dirent *e; (e = readdir(d)) != NULL;) assert_null(strstr(e->d_name, ".tmp-"));
+  closedir(d);
+}
+
+static void killed_runs_resume_bitwise(void **state) {
+  const problem_t *p = *state;
+  ht_tmpdir_create("optimizer-kill");
+  char path[1024];
+  snprintf(path, sizeof path, "%s", ht_path("run.ckpt"));
+  outcome_t *o = calloc(2, sizeof *o);
+  /* One stage of 8 iterations: checkpoints every 1 or 3 iterations, so the
+   * resume starts at the kill (4) or before it (3). */
+  static const struct { double interval; int64_t at; size_t done; } one[] = {{1, 4, 4}, {3, 4, 3}};
+  setup_t s = coarse_setup(p);
+  reference_run(p, &s, 1, &o[0]);
+  for (size_t i = 0; i < sizeof one / sizeof one[0]; ++i) {
+    s.interval = one[i].interval;
+    run_killed_child(p, &s, path, one[i].at);
+    resume_and_finish(p, &s, path, one[i].done, &o[0], &o[1]);
+    assert_same_outcome(&o[0], &o[1]);
+    assert_only_checkpoints_left(1);
+  }
+  /* Two stages (coarse 4, per voxel 4): the kill at the boundary and inside
+   * the second stage. */
+  s = two_stage_setup(p);
+  reference_run(p, &s, 4, &o[0]);
+  static const int64_t two[] = {4, 6};
+  for (size_t i = 0; i < sizeof two / sizeof two[0]; ++i) {
+    run_killed_child(p, &s, path, two[i]);
+    resume_and_finish(p, &s, path, (size_t)two[i], &o[0], &o[1]);
+    assert_same_outcome(&o[0], &o[1]);
+  }
+  /* With minibatches and Adam too. */
+  s.minibatch = 1;
+  s.method = HETINV_METHOD_ADAM;
+  reference_run(p, &s, 4, &o[0]);
+  run_killed_child(p, &s, path, 6);
+  resume_and_finish(p, &s, path, 6, &o[0], &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  assert_only_checkpoints_left(1);
+  free(o);
+  ht_tmpdir_remove();
+}
+
+/* A checkpoint of the coarse setup stopped after 4 iterations. */
+static void write_half_way(const problem_t *p, const setup_t *s, const char *path) {
+  hetinv_optimizer_t *opt = make_optimizer(p, s);
+  stopper_t st = {.stop_at = 4};
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_ok(hetinv_optimizer_save(opt, path));
+  hetinv_optimizer_destroy(&opt);
+}
+
+/* A resume into a differently configured optimizer fails naming the
+ * difference, and leaves that optimizer as it was. */
+static void expect_refused(hetinv_optimizer_t *opt, const char *path, const char *names) {
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_resume(opt, path));
+  assert_message_contains(names);
+  size_t n = 99;
+  assert_null(hetinv_optimizer_losses(opt, &n));
+  assert_int_equal(n, 0);
+}
+
+static void resume_refuses_another_configuration(void **state) {
+  const problem_t *p = *state;
+  ht_tmpdir_create("optimizer-refuse");
+  char path[1024];
+  snprintf(path, sizeof path, "%s", ht_path("half.ckpt"));
+  setup_t s = coarse_setup(p);
+  write_half_way(p, &s, path);
+  outcome_t *o = calloc(2, sizeof *o);
+  reference_run(p, &s, 1, &o[0]);
+  hetinv_optimizer_t *opt = NULL;
+
+  /* Tunables, by name. */
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 12));
+  expect_refused(opt, path, "HETINV_OPTIMIZER_ITERATIONS");
+  hetinv_optimizer_destroy(&opt);
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_DECAY, 0.9));
+  expect_refused(opt, path, "HETINV_OPTIMIZER_DECAY");
+  /* ...and the refused optimizer still runs from scratch like a fresh one. */
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_DECAY, 0.95));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  capture(opt, 1, &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  hetinv_optimizer_destroy(&opt);
+  /* A stage's own iteration count. */
+  setup_t t = s;
+  t.iterations[0] = 9;
+  opt = make_optimizer(p, &t);
+  expect_refused(opt, path, "stage 0");
+  assert_message_contains("iterations 8 vs 9");
+  hetinv_optimizer_destroy(&opt);
+  /* Another schedule. */
+  t = two_stage_setup(p);
+  opt = make_optimizer(p, &t);
+  expect_refused(opt, path, "stages");
+  hetinv_optimizer_destroy(&opt);
+  /* Bounds. */
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 1, 11));
+  expect_refused(opt, path, "bounds of sigma_s");
+  hetinv_optimizer_destroy(&opt);
+  /* Measured values (changed while no optimizer uses the set, then restored). */
+  double *values = malloc(p->count * sizeof *values);
+  memcpy(values, hetinv_measurements_values(p->set), p->count * sizeof *values);
+  values[1] *= 1.01;
+  assert_ok(hetinv_measurements_set_values(p->set, values, NULL, p->count));
+  opt = make_optimizer(p, &s);
+  expect_refused(opt, path, "measured values");
+  hetinv_optimizer_destroy(&opt);
+  values[1] /= 1.01;
+  assert_ok(hetinv_measurements_set_values(p->set, values, NULL, p->count));
+  free(values);
+  /* Initial medium. */
+  hetinv_medium_t *other = make_medium(p->ctx, p->dims, 7.0);
+  assert_ok(hetinv_medium_commit(other));
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, other, &opt));
+  assert_ok(configure(opt, &s));
+  expect_refused(opt, path, "initial medium");
+  hetinv_optimizer_destroy(&opt);
+  hetinv_medium_destroy(&other);
+  /* Seed. */
+  hetinv_context_t *ctx2 = make_context(8);
+  assert_ok(hetinv_optimizer_create(ctx2, p->set, p->initial, &opt));
+  assert_ok(configure(opt, &s));
+  expect_refused(opt, path, "seed");
+  hetinv_optimizer_destroy(&opt);
+  hetinv_context_destroy(&ctx2);
+
+  /* The estimator's tunables are checked when the resumed run starts. */
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_resume(opt, path));
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_PHOTONS, 300));
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_run(opt, p->est, &why));
+  assert_message_contains("HETINV_ESTIMATOR_PHOTONS");
+  assert_message_contains("300");
+  size_t n = 0;
+  hetinv_optimizer_losses(opt, &n);
+  assert_int_equal(n, 4);
+  /* With the right estimator, the run continues as if never stopped. */
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_PHOTONS, 100));
+  assert_ok(hetinv_optimizer_run(opt, p->est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  capture(opt, 1, &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  hetinv_optimizer_destroy(&opt);
+  free(o);
+  ht_tmpdir_remove();
+}
+
+static uint64_t fnv1a64(const unsigned char *p, size_t n) {
+  uint64_t h = UINT64_C(0xcbf29ce484222325);
+  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * UINT64_C(0x100000001b3);
+  return h;
+}
+
+static unsigned char *slurp(const char *path, size_t *len) {
+  FILE *f = fopen(path, "rb");
+  assert_non_null(f);
+  fseek(f, 0, SEEK_END);
+  long size = ftell(f);
+  assert_true(size > 0);
+  fseek(f, 0, SEEK_SET);
+  unsigned char *data = malloc((size_t)size);
+  assert_int_equal(fread(data, 1, (size_t)size, f), (size_t)size);
+  fclose(f);
+  *len = (size_t)size;
+  return data;
+}
+
+/* A damaged file is refused as corrupt and changes nothing. */
+static void expect_corrupt(hetinv_optimizer_t *opt, const char *path) {
+  hetinv_result_t r = hetinv_optimizer_resume(opt, path);
+  if (r != HETINV_ERROR_CORRUPT_FILE) {
+    print_error("resume returned %s (%s)\n", hetinv_result_name(r), hetinv_context_last_error_message(NULL));
+    fail();
+  }
+  assert_null(hetinv_optimizer_losses(opt, NULL));
+}
+
+static void damaged_checkpoints_are_refused(void **state) {
+  const problem_t *p = *state;
+  ht_tmpdir_create("optimizer-corrupt");
+  char good[1024], bad[1024];
+  snprintf(good, sizeof good, "%s", ht_path("good.ckpt"));
+  snprintf(bad, sizeof bad, "%s", ht_path("bad.ckpt"));
+  setup_t s = coarse_setup(p);
+  write_half_way(p, &s, good);
+  size_t len = 0;
+  unsigned char *data = slurp(good, &len);
+  unsigned char *copy = malloc(len + 1);
+  outcome_t *o = calloc(2, sizeof *o);
+  reference_run(p, &s, 1, &o[0]);
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+
+  /* Truncated anywhere, or one byte too long. */
+  const size_t cuts[] = {0, 1, 7, 8, 16, 23, 24, 25, 100, len / 2, len - 9, len - 8, len - 1};
+  for (size_t i = 0; i < sizeof cuts / sizeof cuts[0]; ++i) {
+    ht_write_file(bad, data, cuts[i]);
+    expect_corrupt(opt, bad);
+  }
+  memcpy(copy, data, len);
+  copy[len] = 0;
+  ht_write_file(bad, copy, len + 1);
+  expect_corrupt(opt, bad);
+  /* One bit flipped: every byte of the header and the start of the
+   * fingerprint, then bytes spread over the fingerprint and the state, and
+   * every byte of the last value and the checksum. */
+  for (size_t i = 0; i < len; i += i < 64 || i >= len - 16 ? 1 : 29) {
+    memcpy(copy, data, len);
+    copy[i] ^= (unsigned char)(1u << (i % 8));
+    ht_write_file(bad, copy, len);
+    expect_corrupt(opt, bad);
+  }
+  /* Another magic, even with a valid checksum. */
+  memcpy(copy, data, len);
+  memcpy(copy, "HVCKPT99", 8);
+  uint64_t sum = fnv1a64(copy, len - 8);
+  memcpy(copy + len - 8, &sum, 8);
+  ht_write_file(bad, copy, len);
+  expect_corrupt(opt, bad);
+  assert_message_contains("magic");
+  ht_write_file(bad, "not a checkpoint at all, just text.", 35);
+  expect_corrupt(opt, bad);
+  /* An intact file of a later format version is unsupported, not corrupt. */
+  memcpy(copy, data, len);
+  uint64_t version = 2;
+  memcpy(copy + 16, &version, 8);
+  sum = fnv1a64(copy, len - 8);
+  memcpy(copy + len - 8, &sum, 8);
+  ht_write_file(bad, copy, len);
+  assert_result(HETINV_ERROR_UNSUPPORTED, hetinv_optimizer_resume(opt, bad));
+  /* Intact (checksummed) files whose content is inconsistent: a loss
+   * history far larger than the file, an averaging ring fuller than its
+   * window, a negative σs in the base medium. The tail of the file holds
+   * ... ring (3 x 1), loss count, 4 losses, 3 grids of 4 voxels, checksum. */
+  const size_t grids = len - 8 - 3 * 4 * 8, loss_count = grids - 4 * 8 - 8;
+  const size_t ring_count = loss_count - 3 * 8 - 2 * 8, iteration = loss_count - 96;
+  uint64_t field[3];
+  memcpy(&field[0], data + iteration, 8);
+  memcpy(&field[1], data + loss_count, 8);
+  memcpy(&field[2], data + ring_count, 8);
+  assert_true(field[0] == 4 && field[1] == 4 && field[2] == 3); /* the layout is as read here */
+  const struct { size_t at[2]; uint64_t u; double d; } forged[] = {
+      {{iteration, loss_count}, UINT64_C(1) << 40, 0}, /* would allocate 8 TiB */
+      {{iteration, loss_count}, 5, 0},
+      {{ring_count, ring_count}, 4, 0},
+      {{grids + 4 * 8 + 8, grids + 4 * 8 + 8}, 0, -1.0}, /* σs of voxel 1 */
+      {{grids + 2 * 4 * 8, grids + 2 * 4 * 8}, 0, 1.5},   /* g of voxel 0 */
+  };
+  for (size_t i = 0; i < sizeof forged / sizeof forged[0]; ++i) {
+    memcpy(copy, data, len);
+    for (int j = 0; j < 2; ++j) {
+      if (forged[i].d != 0) {
+        memcpy(copy + forged[i].at[j], &forged[i].d, 8);
+      } else {
+        memcpy(copy + forged[i].at[j], &forged[i].u, 8);
+      }
+    }
+    sum = fnv1a64(copy, len - 8);
+    memcpy(copy + len - 8, &sum, 8);
+    ht_write_file(bad, copy, len);
+    expect_corrupt(opt, bad);
+  }
+  /* Missing files are I/O errors. */
+  assert_result(HETINV_ERROR_IO, hetinv_optimizer_resume(opt, ht_path("missing.ckpt")));
+  assert_message_contains("missing.ckpt");
+
+  /* After all that, the optimizer runs from scratch like a fresh one... */
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  capture(opt, 1, &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  hetinv_optimizer_destroy(&opt);
+  /* ...and the intact file resumes to the same end. */
+  resume_and_finish(p, &s, good, 4, &o[0], &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  free(o);
+  free(copy);
+  free(data);
+  ht_tmpdir_remove();
+}
+
+/* ------------------------------------------------------------------------ */
+/* 8. Layer-wise stages (Fig. 2(b)). */
+
+static void layerwise_errors(void **state) {
+  const problem_t *steady = *state; /* steady rows only: nothing frontlit and resolved */
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(steady->ctx, steady->set, steady->initial, &opt));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_layerwise_stages(opt, steady->identity, 0.5, 2, 1));
+  assert_message_contains("frontlit");
+  hetinv_optimizer_destroy(&opt);
+
+  problem_t p;
+  problem_init(&p, 3, 3, 3, 1, true);
+  assert_ok(hetinv_optimizer_create(p.ctx, p.set, p.initial, &opt));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_layerwise_stages(opt, p.coarse, 1.0 / 3, 3, 1));
+  assert_message_contains("one value per voxel");
+  const double thickness[] = {0, -1, NaN, Inf, -Inf};
+  for (size_t i = 0; i < sizeof thickness / sizeof thickness[0]; ++i) {
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_layerwise_stages(opt, p.identity, thickness[i], 3, 1));
+    assert_message_contains("layer_thickness");
+  }
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_layerwise_stages(opt, p.identity, 0.5, 0, 1));
+  assert_message_contains("layers");
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_layerwise_stages(opt, p.identity, 0.5, 2, -1));
+  assert_message_contains("iterations");
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_add_layerwise_stages(opt, NULL, 0.5, 2, 1));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_add_layerwise_stages(NULL, p.identity, 0.5, 2, 1));
+  /* A map of another grid with the same dimensions. */
+  hetinv_medium_t *other = NULL;
+  assert_ok(hetinv_medium_create(p.ctx, (double[]){0, 0, 0}, (double[]){2, 2, 2}, p.dims, &other));
+  hetinv_param_map_t *map = NULL;
+  assert_ok(hetinv_param_map_create_identity(other, SS, &map));
+  hetinv_param_map_destroy(&map);
+  hetinv_medium_destroy(&other);
+  /* A very thin layer: every voxel lies in a deep layer (no overflow). */
+  assert_ok(hetinv_optimizer_add_layerwise_stages(opt, p.identity, 1e-300, 1, 1));
+  assert_int_equal(opt->stage_count, 1);
+  for (size_t i = 0; i < 9; ++i) assert_true(opt->stages[0].frozen[i]);
+  hetinv_optimizer_destroy(&opt);
+  problem_release(&p);
+}
+
+static void layerwise_stages_free_one_layer_each(void **state) {
+  (void)state;
+  problem_t p;
+  problem_init(&p, 3, 3, 3, 1, true); /* 3 x 1 x 3 voxels, one beam at x = 0.5 */
+  hetinv_optimizer_t *opt = NULL;
+  assert_ok(hetinv_optimizer_create(p.ctx, p.set, p.initial, &opt));
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, SIGMA_HI));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, 1));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 0.05));
+  /* A first coarse stage, then three layers of 1/3 mm. */
+  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL};
+  assert_ok(hetinv_optimizer_add_stage(opt, &first));
+  const double h = 1.0 / 3;
+  assert_ok(hetinv_optimizer_add_layerwise_stages(opt, p.identity, h, 3, 4));
+  assert_int_equal(opt->stage_count, 4);
+
+  /* White-box: stage 1 + n frees the voxels of z = n and keeps the bins
+   * whose window ends before sqrt(d² + (2(n+1)h)²), d the distance from the
+   * beam's entry point to the pixel's centre. */
+  size_t offset = 0;
+  int32_t pixels = 0, bins = 0;
+  assert_ok(hetinv_measurements_row_layout(p.set, 0, &offset, &pixels, &bins));
+  assert_true(pixels == 3 && bins == BINS && p.count == 48);
+  for (int n = 0; n < 3; ++n) {
+    const hv_stage_t *st = &opt->stages[1 + n];
+    assert_int_equal(st->k, 9);
+    assert_int_equal(st->iterations == 0 ? st->requested : st->iterations, 4);
+    for (int v = 0; v < 9; ++v) assert_int_equal(st->frozen[v] != 0, v / 3 != n);
+    for (int b = 0; b < BINS; ++b) {
+      for (int px = 0; px < 3; ++px) {
+        double d = (px + 0.5) / 3 - p.beam_x[0], depth2 = 2 * (n + 1) * h;
+        bool keep = (b + 1) * BIN_WIDTH <= sqrt(d * d + depth2 * depth2);
+        assert_int_equal(st->value_mask[(size_t)b * 3 + (size_t)px] != 0, keep);
+      }
+    }
+  }
+
+  pi_log_t *log = calloc(1, sizeof *log);
+  log->opt = opt;
+  assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+  hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  assert_ok(hetinv_optimizer_run(opt, p.est, &why));
+  assert_int_equal(why, HETINV_STOP_COMPLETED);
+  assert_int_equal(log->count, 2 + 3 * 4);
+  assert_int_equal(log->progress[0].stage_count, 4);
+  /* Stage 0 ends with every voxel at its (coarse) average. */
+  double before[9];
+  for (int v = 0; v < 9; ++v) before[v] = log->avg[1][0];
+  for (int n = 0; n < 3; ++n) {
+    bool moved = false;
+    for (int i = 0; i < 4; ++i) {
+      const int row = 2 + 4 * n + i;
+      assert_int_equal(log->progress[row].stage, 1 + n);
+      for (int v = 0; v < 9; ++v) {
+        if (v / 3 != n) {
+          assert_true(log->pi[row][v] == before[v]); /* other layers never move */
+        } else {
+          moved |= log->pi[row][v] != before[v];
+        }
+      }
+    }
+    assert_true(moved); /* the layer's own voxels did */
+    memcpy(before, log->pi[2 + 4 * n + 3], sizeof before); /* window 1: the average is the last iterate */
+  }
+  free(log);
+  hetinv_optimizer_destroy(&opt);
+  problem_release(&p);
+}
+
+/* ------------------------------------------------------------------------ */
+/* 9. NULL arguments. */
+
+static void null_arguments_are_refused(void **state) {
+  const problem_t *p = *state;
+  static char dummy;
+  hetinv_optimizer_t *const sentinel = (hetinv_optimizer_t *)(void *)&dummy;
+  hetinv_optimizer_t *opt = sentinel;
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_create(NULL, p->set, p->initial, &opt));
+  assert_null(opt);
+  opt = sentinel;
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_create(p->ctx, NULL, p->initial, &opt));
+  assert_null(opt);
+  opt = sentinel;
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_create(p->ctx, p->set, NULL, &opt));
+  assert_null(opt);
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_create(p->ctx, p->set, p->initial, NULL));
+
+  hetinv_optimizer_destroy(NULL);
+  opt = NULL;
+  hetinv_optimizer_destroy(&opt);
+  assert_null(opt);
+
+  setup_t s = coarse_setup(p);
+  s.iterations[0] = 1;
+  opt = make_optimizer(p, &s);
+  double v = 0, pi[1];
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL};
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_set_param(NULL, HETINV_OPTIMIZER_DECAY, 0.5));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(NULL, HETINV_OPTIMIZER_DECAY, &v));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, NULL));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_set_bounds(NULL, HETINV_PARAM_G, 0, 0.5));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_add_stage(NULL, &st));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_add_stage(opt, NULL));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_set_progress(NULL, NULL, NULL));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_set_checkpoint(NULL, "x"));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_save(NULL, "x"));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_save(opt, NULL));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_resume(NULL, "x"));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_resume(opt, NULL));
+  hetinv_stop_reason_t why = 42;
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_run(NULL, p->est, &why));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_run(opt, NULL, &why));
+  assert_int_equal(why, HETINV_STOP_NONE);
+  hetinv_medium_t *m = (hetinv_medium_t *)(void *)&dummy;
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_result(NULL, &m));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_result(opt, NULL));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_pi(NULL, 0, pi, 1));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_pi(opt, 0, NULL, 1));
+  size_t n = 99;
+  assert_null(hetinv_optimizer_losses(NULL, &n));
+  assert_int_equal(n, 0);
+  assert_null(hetinv_optimizer_losses(NULL, NULL));
+  /* NULL clears the callback and the checkpoint path; the run needs neither. */
+  assert_ok(hetinv_optimizer_set_checkpoint(opt, "/nonexistent/dir/x.ckpt"));
+  assert_ok(hetinv_optimizer_set_checkpoint(opt, NULL));
+  assert_ok(hetinv_optimizer_set_progress(opt, NULL, NULL));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_ok(hetinv_optimizer_get_pi(opt, 0, pi, 1));
+  hetinv_optimizer_destroy(&opt);
+  assert_null(opt);
+}
+
+/* A checkpoint that cannot be written fails the run with an I/O error. */
+static void unwritable_checkpoints_fail_the_run(void **state) {
+  const problem_t *p = *state;
+  setup_t s = coarse_setup(p);
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_checkpoint(opt, "/nonexistent/dir/x.ckpt"));
+  hetinv_stop_reason_t why = 42;
+  assert_result(HETINV_ERROR_IO, hetinv_optimizer_run(opt, p->est, &why));
+  assert_message_contains("/nonexistent/dir/x.ckpt");
+  size_t n = 0;
+  hetinv_optimizer_losses(opt, &n);
+  assert_int_equal(n, 1);
+  hetinv_optimizer_destroy(&opt);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(tunables_have_documented_defaults_and_bounds),
+      cmocka_unit_test(tunables_reject_bad_values_naming_them),
+      cmocka_unit_test(bounds_are_validated),
+      cmocka_unit_test(configuration_is_frozen_once_run),
+      cmocka_unit_test(stage_and_create_errors),
+      cmocka_unit_test(adadelta_steps_match_hand_computation),
+      cmocka_unit_test(other_methods_step_as_documented),
+      cmocka_unit_test(every_method_moves_sigma_s_toward_the_truth),
+      cmocka_unit_test(iterates_never_leave_the_box),
+      cmocka_unit_test(frozen_entries_never_move),
+      cmocka_unit_test(masked_values_give_no_gradient),
+      cmocka_unit_test(minibatches_are_reproducible),
+      cmocka_unit_test(stages_run_their_counts_with_right_progress),
+      cmocka_unit_test(iterations_default_is_100),
+      cmocka_unit_test(a_plateau_ends_a_stage_early),
+      cmocka_unit_test(a_time_budget_stops_the_run),
+      cmocka_unit_test(the_callback_stops_and_run_continues),
+      cmocka_unit_test(the_next_stage_starts_from_the_average),
+      cmocka_unit_test(killed_runs_resume_bitwise),
+      cmocka_unit_test(resume_refuses_another_configuration),
+      cmocka_unit_test(damaged_checkpoints_are_refused),
+      cmocka_unit_test(layerwise_errors),
+      cmocka_unit_test(layerwise_stages_free_one_layer_each),
+      cmocka_unit_test(null_arguments_are_refused),
+      cmocka_unit_test(unwritable_checkpoints_fail_the_run),
+  };
+  return cmocka_run_group_tests(tests, problem_setup, problem_teardown);
+}
