@@ -13,6 +13,10 @@
 
 #include "recon.h"
 
+#ifdef HETINV_RECONSTRUCT_MPI
+#include <mpi.h>
+#endif
+
 static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-reconstruct: %s\n"
@@ -46,7 +50,7 @@ static int fail(hetinv_context_t *ctx, const char *what) {
   return 1;
 }
 
-int main(int argc, char **argv) {
+static int run(int argc, char **argv) {
   recon_scene_t sc;
   recon_scene_default(&sc);
   const char *scene_path = NULL, *out_dir = NULL;
@@ -101,6 +105,10 @@ int main(int argc, char **argv) {
   if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return fail(NULL, "context");
   double t0 = now();
   int status = 0;
+  /* Under MPI every rank runs the same reconstruction (the estimator shares
+   * the work and returns the same values everywhere); rank 0 talks and writes. */
+  bool root = hetinv_context_rank(ctx) == 0;
+  quiet = quiet || !root;
   hetinv_medium_t *truth = NULL, *rec = NULL;
   recon_imaging_t im;
   memset(&im, 0, sizeof im);
@@ -109,7 +117,7 @@ int main(int argc, char **argv) {
   } else if (recon_imaging_build(ctx, truth, &sc, &im) != HETINV_SUCCESS) {
     status = fail(ctx, "imaging configuration");
   }
-  if (status == 0) {
+  if (status == 0 && root) {
     printf("hetinv-reconstruct: %s: %d x %d x %d voxels, %d sources, %d rows, %zu values\n", sc.name,
            (int)sc.grid[0], (int)sc.grid[1], (int)sc.grid[2], (int)im.emitter_count,
            (int)hetinv_measurements_row_count(im.set), hetinv_measurements_value_count(im.set));
@@ -126,7 +134,7 @@ int main(int argc, char **argv) {
       status = fail(ctx, "simulated acquisition");
     } else {
       snprintf(path, sizeof path, "%s/measurements.exr", sc.output);
-      if (recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = fail(ctx, "measurements.exr");
+      if (root && recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = fail(ctx, "measurements.exr");
       if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", now() - t0, path);
     }
   }
@@ -134,7 +142,7 @@ int main(int argc, char **argv) {
   if (status == 0 && recon_solve(ctx, &sc, &im, resume, quiet, &rec, &seconds) != HETINV_SUCCESS) {
     status = fail(ctx, "reconstruction");
   }
-  if (status == 0) {
+  if (status == 0 && root) {
     recon_errors_t e;
     recon_errors(truth, rec, &e);
     if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = fail(ctx, "outputs");
@@ -150,5 +158,17 @@ int main(int argc, char **argv) {
   hetinv_medium_destroy(&truth);
   recon_imaging_release(&im);
   hetinv_context_destroy(&ctx);
+  return status;
+}
+
+int main(int argc, char **argv) {
+#ifdef HETINV_RECONSTRUCT_MPI
+  int provided = 0;
+  MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+#endif
+  int status = run(argc, argv);
+#ifdef HETINV_RECONSTRUCT_MPI
+  MPI_Finalize();
+#endif
   return status;
 }

@@ -46,7 +46,7 @@ void recon_scene_default(recon_scene_t *sc) {
   sc->photons = 2000;
   sc->batches = 8;
   sc->method = HETINV_METHOD_ADADELTA;
-  sc->iterations = 600;
+  sc->iterations = 400;
   sc->coarse_fraction = 0.15;
   sc->minibatch = 16;
   sc->epsilon = 0.01;

@@ -111,7 +111,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_run(opt, est, &why);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_result(opt, out);
   if (seconds) *seconds = pl.elapsed;
-  if (r == HETINV_SUCCESS) {
+  if (r == HETINV_SUCCESS && hetinv_context_rank(ctx) == 0) {
     /* The loss of every iteration (resumed runs included), written atomically. */
     size_t n = 0;
     const double *losses = hetinv_optimizer_losses(opt, &n);

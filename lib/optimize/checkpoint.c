@@ -161,6 +161,7 @@ static void put_fingerprint(buf_t *b, const fingerprint_t *f) { put(b, f, sizeof
 
 hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path, const char *func) {
   const hetinv_context_t *ctx = opt->ctx;
+  if (hetinv_context_rank(ctx) != 0) return HETINV_SUCCESS; /* one writer under MPI: every rank holds the same state */
   buf_t b = {.ctx = ctx};
   put(&b, MAGIC, 8);
   put_u64(&b, BYTE_ORDER_TAG);

@@ -1,0 +1,356 @@
+/* hetinv-fig5: the paper's Fig. 5 experiment, reduced. A dense
+ * heterogeneous smoke volume (hetinv_volume_smoke) with smoothly varying
+ * σa, σs and g, η = 1, is recovered from simulated pathlength-resolved
+ * measurements under frontlighting (sources on z_min), sidelighting (x_min)
+ * and backlighting (z_max); then the truth and the recovery are rendered
+ * under a view and a light that the fit never saw (a collimated area light
+ * from an oblique direction on y_min, an orthographic camera on x_max).
+ *
+ *   hetinv-fig5 [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]
+ *               [--threads N] [--quiet]
+ *
+ * Default (reduced): a 6 × 6 × 6 grid, 27 sources (every 2nd boundary
+ * pixel of the three lit faces), about 3–5 minutes on 2 cores. --full: a
+ * 16 × 16 × 16 grid with 48 sources (every 4th pixel), more iterations and
+ * photons; it is much slower — an estimated 30–90 minutes on 2 cores
+ * (extrapolated from the reduced run's cost per photon and iteration, not
+ * measured; the cost grows with photons × iterations). The paper's run
+ * (a finer grid, many more sources and iterations) reports a mean relative
+ * error of 9.31 % and a max of 19.73 % over all parameters; the reduced run
+ * is not expected to match those figures.
+ *
+ * Outputs in DIR (default out/fig5): those of hetinv-reconstruct
+ * (recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv,
+ * measurements.exr) plus novel_view.png (truth left, recovery right) and
+ * novel_view.exr (channels "truth" and "recovered").
+ *
+ * Exit status: 0 success, 1 failure (message on stderr), 2 usage error. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "recon.h"
+
+#define PROG "hetinv-fig5"
+#define REDUCED_GRID 6
+#define FULL_GRID 16
+#define VIEW_PIXELS 32
+/* Photons per render of the novel view, per photon of the optimiser's estimator. */
+#define VIEW_PHOTON_FACTOR 100
+
+static void print_usage(FILE *f) {
+  fprintf(f,
+          "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
+          "                   [--threads N] [--quiet]\n"
+          "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
+          "pathlength-resolved measurements, then render truth and recovery under a\n"
+          "novel view and light.\n"
+          "  --full          %d^3 grid, 48 sources (slow: an estimated 30-90 minutes on\n"
+          "                  2 cores, not measured);\n"
+          "                  default: reduced %d^3 grid, 27 sources (about 3-5 minutes)\n"
+          "  --grid N        an N^3 grid (N >= 2; for tests and experiments)\n"
+          "  -o DIR          output directory (default out/fig5)\n"
+          "  --iterations N  iterations of the finest stage\n"
+          "  --photons N     photons per emitter of the optimiser's estimator; the\n"
+          "                  novel view uses %d times as many\n"
+          "  --threads N     threads (0 = all cores; default)\n"
+          "  --quiet         no progress line\n",
+          FULL_GRID, REDUCED_GRID, VIEW_PHOTON_FACTOR);
+}
+
+static int usage(const char *what) {
+  fprintf(stderr, PROG ": %s\n", what);
+  print_usage(stderr);
+  return 2;
+}
+
+static int parse_count(const char *opt, const char *text, int64_t lo, int64_t hi, int64_t *out) {
+  char *end = NULL;
+  errno = 0;
+  long long v = text ? strtoll(text, &end, 10) : 0;
+  if (text == NULL || *text == '\0' || *end != '\0' || errno || v < lo || v > hi) {
+    fprintf(stderr, PROG ": %s: '%s' is not an integer from %lld to %lld\n", opt, text ? text : "",
+            (long long)lo, (long long)hi);
+    return -1;
+  }
+  *out = v;
+  return 0;
+}
+
+static double now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int fail(hetinv_context_t *ctx, const char *what) {
+  fprintf(stderr, PROG ": %s: %s\n", what, ctx ? hetinv_context_last_error_message(ctx) : "failed");
+  return 1;
+}
+
+/* The Fig. 5 scene on an n × n × n grid. */
+static void fig5_scene(recon_scene_t *sc, int32_t n, bool full) {
+  recon_scene_default(sc);
+  snprintf(sc->name, sizeof sc->name, "%s Fig. 5 (smoke)", full ? "full" : "reduced");
+  sc->size = 1.0;
+  sc->grid[0] = sc->grid[1] = sc->grid[2] = n;
+  sc->eta = 1.0;
+  /* Dense smoke in a 1 mm cube: optical depths across it of about 3 to 12. */
+  sc->truth_kind = RECON_TRUTH_SMOKE;
+  sc->truth_seed = 5;
+  double lo[3] = {0.5, 2.0, 0.2}, hi[3] = {2.0, 10.0, 0.6};
+  memcpy(sc->truth_lo, lo, sizeof lo);
+  memcpy(sc->truth_hi, hi, sizeof hi);
+  /* Configuration (1): normal beams, the source pixel and its neighbours,
+   * pathlength bins of 0.125 mm up to 4 mm. */
+  sc->config = RECON_PATHLENGTH;
+  sc->angle_count = 1;
+  sc->angles[0] = 0.0;
+  sc->source_faces = 1u << HETINV_FACE_Z_MIN | 1u << HETINV_FACE_X_MIN | 1u << HETINV_FACE_Z_MAX;
+  sc->camera_faces = 0;
+  sc->source_stride = full ? 4 : 2;
+  sc->truth_photons = full ? 100000 : 30000;
+  sc->photons = full ? 4000 : 2000;
+  sc->iterations = full ? 1500 : 600;
+  sc->coarse_fraction = 0.3;
+  sc->average_window = full ? 200 : 100;
+  /* Bounds around the smoke's range, the start in the middle of it. */
+  double blo[3] = {0.2, 1.0, 0.0}, bhi[3] = {3.0, 12.0, 0.8};
+  memcpy(sc->bounds_lo, blo, sizeof blo);
+  memcpy(sc->bounds_hi, bhi, sizeof bhi);
+  for (int p = 0; p < 3; ++p) sc->init[p] = 0.5 * (lo[p] + hi[p]);
+  /* Coarse to fine: 1, 2, 4, ... cells per axis, then the voxel grid. */
+  sc->level_count = 0;
+  for (int32_t c = 1; c < n && sc->level_count < RECON_MAX_LEVELS - 1; c *= 2) sc->levels[sc->level_count++] = c;
+  sc->levels[sc->level_count++] = n;
+  snprintf(sc->output, sizeof sc->output, "out/fig5");
+}
+
+/* The novel view and light: a collimated area light filling face y_min,
+ * travelling obliquely inward, and an orthographic camera over the whole
+ * face x_max seeing the light that leaves it slightly off the normal;
+ * steady state. Neither the light nor the camera's face takes part in the fit. */
+typedef struct novel_view {
+  hetinv_measurements_t *set;
+  hetinv_emitter_t *light;
+  hetinv_sensor_t *camera;
+  hetinv_pathlength_t *steady;
+} novel_view_t;
+
+static hetinv_result_t novel_view_build(hetinv_context_t *ctx, const hetinv_medium_t *m, double size,
+                                        novel_view_t *v) {
+  memset(v, 0, sizeof *v);
+  double light_dir[3] = {0.45, 1.0, -0.35}; /* into y_min, from below and aside */
+  double rmin[2] = {0.0, 0.0}, rmax[2] = {size, size};
+  double cam_dir[3] = {1.0, -0.2, 0.25};    /* leaving x_max, a little off the normal */
+  double origin[2] = {0.0, 0.0}, pixel[2] = {size / VIEW_PIXELS, size / VIEW_PIXELS};
+  hetinv_result_t r = hetinv_measurements_create(ctx, &v->set);
+  if (r == HETINV_SUCCESS) r = hetinv_pathlength_create_steady(ctx, &v->steady);
+  if (r == HETINV_SUCCESS) {
+    r = hetinv_emitter_create_area(m, HETINV_FACE_Y_MIN, light_dir, rmin, rmax, 1, 1, NULL, &v->light);
+  }
+  if (r == HETINV_SUCCESS) {
+    r = hetinv_sensor_create_orthographic(m, HETINV_FACE_X_MAX, cam_dir, origin, pixel, VIEW_PIXELS,
+                                          VIEW_PIXELS, &v->camera);
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_add(v->set, v->light, v->camera, v->steady, NULL);
+  return r;
+}
+
+static void novel_view_release(novel_view_t *v) {
+  hetinv_measurements_destroy(&v->set);
+  hetinv_emitter_destroy(&v->light);
+  hetinv_sensor_destroy(&v->camera);
+  hetinv_pathlength_destroy(&v->steady);
+}
+
+/* Renders truth and recovery with the same photons (same stream), writes
+ * novel_view.png and novel_view.exr, and returns the relative RMS
+ * difference of the two renders in *rel_rms. */
+static hetinv_result_t novel_view_render(hetinv_context_t *ctx, const recon_scene_t *sc,
+                                         const hetinv_medium_t *truth, const hetinv_medium_t *rec,
+                                         double *rel_rms, int64_t *photons_out) {
+  novel_view_t v;
+  hetinv_estimator_t *est = NULL;
+  hetinv_image_t *exr = NULL, *png = NULL;
+  const size_t n = (size_t)VIEW_PIXELS * VIEW_PIXELS;
+  double *img[2] = {calloc(n, sizeof(double)), calloc(n, sizeof(double))};
+  int64_t photons = sc->photons * VIEW_PHOTON_FACTOR;
+  *photons_out = photons;
+  hetinv_result_t r = novel_view_build(ctx, truth, sc->size, &v);
+  if (r == HETINV_SUCCESS && (img[0] == NULL || img[1] == NULL)) r = HETINV_ERROR_OUT_OF_MEMORY;
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)photons);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, 50000);
+  const hetinv_medium_t *media[2] = {truth, rec};
+  for (int k = 0; r == HETINV_SUCCESS && k < 2; ++k) {
+    r = hetinv_estimator_render(est, media[k], v.set, img[k], NULL, NULL, n);
+  }
+  double num = 0.0, den = 0.0, top = 0.0;
+  for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) {
+    double d = img[1][i] - img[0][i];
+    num += d * d;
+    den += img[0][i] * img[0][i];
+    top = fmax(top, fmax(img[0][i], img[1][i]));
+  }
+  *rel_rms = den > 0.0 ? sqrt(num / den) : (double)NAN;
+  /* EXR: one pixel grid, two channels. PNG: truth | recovery on one scale. */
+  if (r == HETINV_SUCCESS) r = hetinv_image_create(ctx, VIEW_PIXELS, VIEW_PIXELS, 2, &exr);
+  if (r == HETINV_SUCCESS) r = hetinv_image_create(ctx, 2 * VIEW_PIXELS, VIEW_PIXELS, 1, &png);
+  if (r == HETINV_SUCCESS) r = hetinv_image_set_channel_name(exr, 0, "truth");
+  if (r == HETINV_SUCCESS) r = hetinv_image_set_channel_name(exr, 1, "recovered");
+  if (r == HETINV_SUCCESS) {
+    float *c[2] = {hetinv_image_channel_data(exr, 0), hetinv_image_channel_data(exr, 1)};
+    float *side = hetinv_image_channel_data(png, 0);
+    /* Image row 0 is the bottom of the face (v = z = 0); PNG rows run top down. */
+    for (int k = 0; k < 2; ++k) {
+      for (int32_t y = 0; y < VIEW_PIXELS; ++y) {
+        for (int32_t x = 0; x < VIEW_PIXELS; ++x) {
+          float val = (float)img[k][(size_t)y * VIEW_PIXELS + (size_t)x];
+          c[k][(size_t)y * VIEW_PIXELS + (size_t)x] = val;
+          side[(size_t)(VIEW_PIXELS - 1 - y) * 2 * VIEW_PIXELS + (size_t)(k * VIEW_PIXELS + x)] = val;
+        }
+      }
+    }
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_image_set_attribute_string(exr, "hetinv:view", "area light into y_min along (0.45, 1, -0.35); orthographic camera on x_max along (1, -0.2, 0.25); steady state");
+  if (r == HETINV_SUCCESS) r = hetinv_image_set_attribute_double(exr, "hetinv:relativeRmsDifference", *rel_rms);
+  char path[1200];
+  snprintf(path, sizeof path, "%s/novel_view.exr", sc->output);
+  if (r == HETINV_SUCCESS) r = hetinv_image_write_exr(exr, path);
+  snprintf(path, sizeof path, "%s/novel_view.png", sc->output);
+  if (r == HETINV_SUCCESS) r = hetinv_image_write_png(png, 0, path, 0.0, top > 0.0 ? top : 1.0, HETINV_COLORMAP_VIRIDIS);
+  hetinv_image_destroy(&png);
+  hetinv_image_destroy(&exr);
+  hetinv_estimator_destroy(&est);
+  novel_view_release(&v);
+  free(img[0]);
+  free(img[1]);
+  return r;
+}
+
+int main(int argc, char **argv) {
+  bool full = false, quiet = false;
+  const char *out_dir = NULL;
+  int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
+  for (int i = 1; i < argc; ++i) {
+    const char *a = argv[i];
+    const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+    if (strcmp(a, "--full") == 0) {
+      full = true;
+    } else if (strcmp(a, "--quiet") == 0) {
+      quiet = true;
+    } else if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
+      if (v == NULL) return usage("-o needs a directory");
+      out_dir = argv[++i];
+    } else if (strcmp(a, "--grid") == 0) {
+      ++i;
+      if (parse_count(a, v, 2, 64, &grid) < 0) return 2;
+    } else if (strcmp(a, "--iterations") == 0) {
+      ++i;
+      if (parse_count(a, v, 1, INT32_MAX, &iterations) < 0) return 2;
+    } else if (strcmp(a, "--photons") == 0) {
+      ++i;
+      if (parse_count(a, v, 1, INT64_C(1) << 40, &photons) < 0) return 2;
+    } else if (strcmp(a, "--threads") == 0) {
+      ++i;
+      if (parse_count(a, v, 0, 4096, &threads) < 0) return 2;
+    } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+      print_usage(stdout);
+      return 0;
+    } else {
+      char msg[300];
+      snprintf(msg, sizeof msg, a[0] == '-' ? "unknown option '%s'" : "unexpected argument '%s'", a);
+      return usage(msg);
+    }
+  }
+  recon_scene_t sc;
+  fig5_scene(&sc, grid > 0 ? (int32_t)grid : full ? FULL_GRID : REDUCED_GRID, full);
+  if (out_dir) snprintf(sc.output, sizeof sc.output, "%s", out_dir);
+  if (iterations > 0) sc.iterations = iterations;
+  if (photons > 0) sc.photons = photons;
+  if (threads >= 0) sc.threads = (int32_t)threads;
+  char msg[1024];
+  if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
+    fprintf(stderr, PROG ": %s\n", msg);
+    return 1;
+  }
+  if (recon_make_dirs(sc.output) != 0) {
+    fprintf(stderr, PROG ": cannot create the output directory '%s': %s\n", sc.output, strerror(errno));
+    return 1;
+  }
+
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.seed = sc.seed;
+  init.thread_count = sc.threads;
+  hetinv_context_t *ctx = NULL;
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return fail(NULL, "context");
+  double t0 = now();
+  int status = 0;
+  hetinv_medium_t *truth = NULL, *rec = NULL;
+  recon_imaging_t im;
+  memset(&im, 0, sizeof im);
+  if (recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
+    status = fail(ctx, "ground truth");
+  } else if (recon_imaging_build(ctx, truth, &sc, &im) != HETINV_SUCCESS) {
+    status = fail(ctx, "imaging configuration");
+  }
+  if (status == 0) {
+    printf(PROG ": %s: %d x %d x %d voxels, eta %.2f, %d sources (front z_min, side x_min, back z_max), "
+           "%d rows, %zu values, %lld iterations\n",
+           sc.name, (int)sc.grid[0], (int)sc.grid[1], (int)sc.grid[2], sc.eta, (int)im.emitter_count,
+           (int)hetinv_measurements_row_count(im.set), hetinv_measurements_value_count(im.set),
+           (long long)sc.iterations);
+    fflush(stdout);
+  }
+  char path[1200];
+  if (status == 0) {
+    if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) {
+      status = fail(ctx, "simulated acquisition");
+    } else {
+      snprintf(path, sizeof path, "%s/measurements.exr", sc.output);
+      if (recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = fail(ctx, "measurements.exr");
+      if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", now() - t0, path);
+    }
+  }
+  double seconds = 0.0;
+  if (status == 0 && recon_solve(ctx, &sc, &im, false, quiet, &rec, &seconds) != HETINV_SUCCESS) {
+    status = fail(ctx, "reconstruction");
+  }
+  recon_errors_t e;
+  if (status == 0) {
+    recon_errors(truth, rec, &e);
+    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = fail(ctx, "outputs");
+  }
+  double rel_rms = 0.0, tv = now();
+  int64_t view_photons = 0;
+  if (status == 0 && novel_view_render(ctx, &sc, truth, rec, &rel_rms, &view_photons) != HETINV_SUCCESS) {
+    status = fail(ctx, "novel view");
+  }
+  if (status == 0) {
+    double all_mean = 0.0, all_max = 0.0;
+    printf("\nrelative error of the recovery (%zu voxels):\n", hetinv_medium_voxel_count(truth));
+    printf("  parameter   mean      max\n");
+    for (int p = 0; p < 3; ++p) {
+      printf("  %-9s %6.2f %%  %6.2f %%\n", hetinv_param_name(p), 100.0 * e.mean[p], 100.0 * e.max[p]);
+      all_mean += e.mean[p] / 3.0;
+      all_max = fmax(all_max, e.max[p]);
+    }
+    printf("  %-9s %6.2f %%  %6.2f %%\n", "all", 100.0 * all_mean, 100.0 * all_max);
+    printf("  %-9s %6.2f %%  %6.2f %%   (paper, Fig. 5, all parameters, full resolution)\n", "paper", 9.31, 19.73);
+    printf("novel view (area light on y_min, camera on x_max, %d x %d, %lld photons): "
+           "relative RMS difference truth vs recovery %.2f %% (%.1f s)\n",
+           VIEW_PIXELS, VIEW_PIXELS, (long long)view_photons, 100.0 * rel_rms, now() - tv);
+    printf("optimisation %.1f s, total %.1f s\n", seconds, now() - t0);
+    printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv, novel_view.png, novel_view.exr}\n",
+           sc.output);
+  }
+  hetinv_medium_destroy(&rec);
+  hetinv_medium_destroy(&truth);
+  recon_imaging_release(&im);
+  hetinv_context_destroy(&ctx);
+  return status;
+}
