@@ -52,6 +52,11 @@ def version_number():
     return _clib.version_number()
 
 
+def build_has_mpi():
+    """True if the loaded library was built with MPI (HETINV_WITH_MPI)."""
+    return bool(_clib.build_has_mpi())
+
+
 def result_name(code):
     """Static name of a result code, e.g. "HETINV_ERROR_INVALID_ARGUMENT"."""
     return _clib.result_name(code).decode()

@@ -46,6 +46,9 @@ PROTOTYPES = {
     "hetinv_context_destroy": (None, [c_void_pp]),
     "hetinv_context_thread_count": (_i32, [_vp]),
     "hetinv_context_seed": (_u64, [_vp]),
+    "hetinv_context_rank": (_i32, [_vp]),
+    "hetinv_context_rank_count": (_i32, [_vp]),
+    "hetinv_build_has_mpi": (ctypes.c_int, []),
     "hetinv_context_last_error_message": (_cp, [_vp]),
     "hetinv_context_last_error_code": (_R, [_vp]),
     # medium.h

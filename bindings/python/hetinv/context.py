@@ -31,6 +31,16 @@ class Context(Handle):
     def thread_count(self):
         return lib.context_thread_count(self._ptr)
 
+    @property
+    def rank(self):
+        """This process's MPI rank in the context's communicator (0 without MPI)."""
+        return lib.context_rank(self._ptr)
+
+    @property
+    def rank_count(self):
+        """Ranks sharing the context's work (1 without MPI)."""
+        return lib.context_rank_count(self._ptr)
+
     def last_error_message(self):
         """Message of this context's last failure on the calling thread ("" if none)."""
         return lib.context_last_error_message(self._ptr).decode("utf-8", "replace")
