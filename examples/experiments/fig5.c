@@ -10,7 +10,7 @@
  *               [--threads N] [--quiet]
  *
  * Default (reduced): a 6 × 6 × 6 grid, 27 sources (every 2nd boundary
- * pixel of the three lit faces), about 3–5 minutes on 2 cores. --full: a
+ * pixel of the three lit faces), measured at 5 min 47 s on a loaded 2-core machine. --full: a
  * 16 × 16 × 16 grid with 48 sources (every 4th pixel), more iterations and
  * photons; it is much slower — an estimated 30–90 minutes on 2 cores
  * (extrapolated from the reduced run's cost per photon and iteration, not
@@ -50,7 +50,7 @@ static void print_usage(FILE *f) {
           "novel view and light.\n"
           "  --full          %d^3 grid, 48 sources (slow: an estimated 30-90 minutes on\n"
           "                  2 cores, not measured);\n"
-          "                  default: reduced %d^3 grid, 27 sources (about 3-5 minutes)\n"
+          "                  default: reduced %d^3 grid, 27 sources (about 6 minutes measured under load)\n"
           "  --grid N        an N^3 grid (N >= 2; for tests and experiments)\n"
           "  -o DIR          output directory (default out/fig5)\n"
           "  --iterations N  iterations of the finest stage\n"
