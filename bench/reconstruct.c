@@ -1,10 +1,10 @@
 /* hetinv-bench-reconstruct: the built-in reduced Fig. 4 scene of
- * hetinv-reconstruct (recon_scene_default: an 8 × 1 × 8 section, η = 1.3,
+ * hetinv-reconstruct (recon_scene_default: a 6 × 1 × 6 section of a 0.6 mm cube, η = 1.3,
  * steady-state cameras on four faces), end to end: ground truth, simulated
  * acquisition, the coarse-to-fine optimisation, errors and output files.
  *
  *   hetinv-bench-reconstruct [--iterations N] [--photons N] [--truth-photons N]
- *                            [--threads N] [-o DIR]
+ *                            [--threads N] [-o DIR] [--require MEAN,MAX]
  *
  * --iterations: of the finest stage (default the scene's, 600); coarser
  * stages get the scene's fraction of it, as in hetinv-reconstruct.
@@ -17,15 +17,18 @@
  *
  * Output, one line per figure (DESIGN §8):
  *
- *   reconstruct scene="reduced Fig. 4" grid=8x1x8 sources=S rows=R threads=T photons=P truth_photons=Q iterations=I iterations_all_stages=A
+ *   reconstruct scene="reduced Fig. 4" grid=6x1x6 sources=S rows=R threads=T photons=P truth_photons=Q iterations=I iterations_all_stages=A
  *   reconstruct simulate_seconds=…
  *   reconstruct optimisation_seconds=…
  *   reconstruct total_seconds=…
  *   reconstruct seconds_per_iteration=…   (optimisation seconds / iterations of all stages)
  *   reconstruct param=sigma_a mean_rel_error=… max_rel_error=…   (and sigma_s, g)
  *
- * A benchmark, not a test: it exits non-zero only on a library error (1)
- * or a usage error (2). */
+ * --require MEAN,MAX (e.g. 0.07,0.15, the paper's figures): exit 3 when
+ * any parameter's mean or max relative error is above them, naming it;
+ * the test reconstruct_accuracy runs the default scene so. Otherwise a
+ * benchmark: it exits non-zero only on a library error (1) or a usage
+ * error (2). */
 #include <dirent.h>
 #include <errno.h>
 #include <math.h>
@@ -48,13 +51,15 @@ static double now(void) {
 static void usage(FILE *f) {
   fprintf(f,
           "usage: " PROG " [--iterations N] [--photons N] [--truth-photons N]\n"
-          "                                [--threads N] [-o DIR]\n"
+          "                                [--threads N] [-o DIR] [--require MEAN,MAX]\n"
           "  --iterations N  iterations of the finest stage (default: the scene's)\n"
           "  --photons N     photons per emitter of the optimiser (default: the scene's)\n"
           "  --truth-photons N  photons per emitter of the simulated measurements\n"
           "                  (default: the scene's)\n"
           "  --threads N     threads, 0 = all cores (default: the scene's)\n"
-          "  -o DIR          keep the outputs in DIR (default: a temporary directory, removed)\n");
+          "  -o DIR          keep the outputs in DIR (default: a temporary directory, removed)\n"
+          "  --require MEAN,MAX  exit 3 if a parameter's mean or max relative error is\n"
+          "                  above these (e.g. 0.07,0.15)\n");
 }
 
 static int parse_count(const char *opt, const char *text, int64_t lo, int64_t hi, int64_t *out) {
@@ -96,6 +101,7 @@ int main(int argc, char **argv) {
   recon_scene_default(&sc);
   const char *out_dir = NULL;
   int64_t iterations = -1, photons = -1, truth_photons = -1, threads = -1;
+  double require[2] = {-1.0, -1.0};
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
     if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -112,6 +118,15 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--threads") == 0 && v) {
       if (parse_count(a, v, 0, 4096, &threads) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--require") == 0 && v) {
+      char *comma = NULL, *end = NULL;
+      require[0] = strtod(v, &comma);
+      if (comma != v && *comma == ',') require[1] = strtod(comma + 1, &end);
+      if (end == NULL || end == comma + 1 || *end != '\0' || !(require[0] > 0.0) || !(require[1] > 0.0)) {
+        fprintf(stderr, PROG ": --require wants two positive numbers MEAN,MAX (e.g. 0.07,0.15), not '%s'\n", v);
+        return 2;
+      }
       ++i;
     } else if ((strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) && v) {
       out_dir = v;
@@ -189,6 +204,13 @@ int main(int argc, char **argv) {
     for (int p = 0; p < 3; ++p) {
       printf("reconstruct param=%s mean_rel_error=%.4f max_rel_error=%.4f\n", hetinv_param_name(p), e.mean[p],
              e.max[p]);
+    }
+    for (int p = 0; require[0] > 0.0 && p < 3; ++p) {
+      if (e.mean[p] > require[0] || e.max[p] > require[1]) {
+        fprintf(stderr, PROG ": %s: mean/max relative error %.4f/%.4f above the required %.4f/%.4f\n",
+                hetinv_param_name(p), e.mean[p], e.max[p], require[0], require[1]);
+        status = 3;
+      }
     }
   }
   hetinv_medium_destroy(&rec);

@@ -107,6 +107,8 @@ static void fig5_scene(recon_scene_t *sc, int32_t n, bool full) {
   /* Configuration (1): normal beams, the source pixel and its neighbours,
    * pathlength bins of 0.125 mm up to 4 mm. */
   sc->config = RECON_PATHLENGTH;
+  sc->bin_width = 0.125;
+  sc->max_pathlength = 4.0;
   sc->angle_count = 1;
   sc->angles[0] = 0.0;
   sc->source_faces = 1u << HETINV_FACE_Z_MIN | 1u << HETINV_FACE_X_MIN | 1u << HETINV_FACE_Z_MAX;
@@ -116,7 +118,6 @@ static void fig5_scene(recon_scene_t *sc, int32_t n, bool full) {
   sc->photons = full ? 4000 : 2000;
   sc->iterations = full ? 1500 : 600;
   sc->coarse_fraction = 0.3;
-  sc->average_window = full ? 200 : 100;
   /* Bounds around the smoke's range, the start in the middle of it. */
   double blo[3] = {0.2, 1.0, 0.0}, bhi[3] = {3.0, 12.0, 0.8};
   memcpy(sc->bounds_lo, blo, sizeof blo);

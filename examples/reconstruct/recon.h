@@ -63,7 +63,7 @@ typedef struct recon_scene {
   double coarse_fraction;       /* iterations of each coarser stage, relative */
   int32_t minibatch;
   double epsilon, decay, learning_rate;
-  int32_t average_window;
+  int32_t average_window;       /* 0: half the finest stage's iterations */
   double time_budget;
   double bounds_lo[3], bounds_hi[3];
   double init[3];               /* uniform initial values */

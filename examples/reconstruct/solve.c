@@ -48,6 +48,10 @@ static int on_progress(const hetinv_progress_t *p, void *user) {
 
 static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *sc) {
   hetinv_result_t r = HETINV_SUCCESS;
+  /* Window 0: average the second half of the finest stage, past its
+   * transient (a window longer than the stage would reach back to it). */
+  int64_t window = sc->average_window > 0 ? sc->average_window : sc->iterations / 2;
+  window = window < 1 ? 1 : (window > 4096 ? 4096 : window);
   for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) r = hetinv_optimizer_set_bounds(opt, p, sc->bounds_lo[p], sc->bounds_hi[p]);
   struct { hetinv_optimizer_param_t id; double value; } params[] = {
       {HETINV_OPTIMIZER_METHOD, sc->method},
@@ -55,7 +59,7 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *s
       {HETINV_OPTIMIZER_EPSILON, sc->epsilon},
       {HETINV_OPTIMIZER_DECAY, sc->decay},
       {HETINV_OPTIMIZER_LEARNING_RATE, sc->learning_rate},
-      {HETINV_OPTIMIZER_AVERAGE_WINDOW, sc->average_window},
+      {HETINV_OPTIMIZER_AVERAGE_WINDOW, (double)window},
       {HETINV_OPTIMIZER_TIME_BUDGET, sc->time_budget},
       {HETINV_OPTIMIZER_ITERATIONS, (double)sc->iterations},
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10},
