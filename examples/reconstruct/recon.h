@@ -8,6 +8,7 @@
 #define HETINV_RECON_H
 
 #include <stdbool.h>
+#include <stdio.h>
 #include <stdint.h>
 
 #include <hetinv/hetinv.h>
@@ -138,6 +139,13 @@ void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *recovered
 hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *scene,
                                     const hetinv_medium_t *truth,
                                     const hetinv_medium_t *recovered, const recon_errors_t *errors);
+
+/* A text file written whole or not at all: recon_text_begin() opens
+ * "<path>.tmp" (tmp receives that name; NULL on failure), and
+ * recon_text_commit() closes it and renames it over path, or removes it
+ * if anything failed (-1). */
+FILE *recon_text_begin(const char *path, char *tmp, size_t tmp_size);
+int recon_text_commit(FILE *f, const char *tmp, const char *path);
 
 /* mkdir -p; 0 on success. */
 int recon_make_dirs(const char *path);

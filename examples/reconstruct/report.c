@@ -122,14 +122,9 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
   if (r != HETINV_SUCCESS) return r;
   snprintf(path, sizeof path, "%s/errors.csv", dir);
   char tmp[1220];
-  snprintf(tmp, sizeof tmp, "%s.tmp", path);
-  FILE *f = fopen(tmp, "w");
+  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
   if (f == NULL) return HETINV_ERROR_IO;
   fprintf(f, "parameter,mean_relative_error,max_relative_error\n");
   for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.6f,%.6f\n", hetinv_param_name(p), e->mean[p], e->max[p]);
-  if (fclose(f) != 0 || rename(tmp, path) != 0) {
-    remove(tmp);
-    return HETINV_ERROR_IO;
-  }
-  return HETINV_SUCCESS;
+  return recon_text_commit(f, tmp, path) == 0 ? HETINV_SUCCESS : HETINV_ERROR_IO;
 }

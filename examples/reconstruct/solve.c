@@ -122,12 +122,11 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
     char path[1100];
     snprintf(path, sizeof path, "%s/loss.csv", sc->output);
     char tmp[1120];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "w");
+    FILE *f = recon_text_begin(path, tmp, sizeof tmp);
     if (f) {
       fprintf(f, "iteration,loss\n");
       for (size_t i = 0; i < n; ++i) fprintf(f, "%zu,%.9g\n", i + 1, losses[i]);
-      if (fclose(f) == 0) rename(tmp, path); else remove(tmp);
+      recon_text_commit(f, tmp, path);
     }
   }
   for (int i = 0; i <= RECON_MAX_LEVELS; ++i) hetinv_param_map_destroy(&maps[i]);
