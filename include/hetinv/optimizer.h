@@ -84,7 +84,10 @@ enum hetinv_optimizer_param_id {
   HETINV_OPTIMIZER_DECAY = 1,
   /** ADADELTA's ε, relative: ε_k = (EPSILON · s_k)², so the first step
    *  moves an entry by EPSILON · s_k / sqrt(1 − DECAY) (about 4.5 EPSILON of
-   *  its box width with the default DECAY) (default 0.01; (0, 1]). */
+   *  its box width with the default DECAY). Once the gradient is mostly
+   *  Monte Carlo noise the steps settle at a few EPSILON · s_k, so a
+   *  smaller value gives a steadier result but a slower start
+   *  (hetinv-reconstruct uses 0.003) (default 0.01; (0, 1]). */
   HETINV_OPTIMIZER_EPSILON = 2,
   /** Step size of SGD, AdaGrad and Adam (default 0.01; (0, 1e12]). */
   HETINV_OPTIMIZER_LEARNING_RATE = 3,
