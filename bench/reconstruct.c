@@ -35,18 +35,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
 #include "recon.h"
 
 #define PROG "hetinv-bench-reconstruct"
-
-static double now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static void usage(FILE *f) {
   fprintf(f,
@@ -60,24 +53,6 @@ static void usage(FILE *f) {
           "  -o DIR          keep the outputs in DIR (default: a temporary directory, removed)\n"
           "  --require MEAN,MAX  exit 3 if a parameter's mean or max relative error is\n"
           "                  above these (e.g. 0.07,0.15)\n");
-}
-
-static int parse_count(const char *opt, const char *text, int64_t lo, int64_t hi, int64_t *out) {
-  char *end = NULL;
-  errno = 0;
-  long long v = text ? strtoll(text, &end, 10) : 0;
-  if (text == NULL || *text == '\0' || *end != '\0' || errno || v < lo || v > hi) {
-    fprintf(stderr, PROG ": %s wants an integer in [%lld, %lld], not '%s'\n", opt, (long long)lo,
-            (long long)hi, text ? text : "");
-    return -1;
-  }
-  *out = v;
-  return 0;
-}
-
-static int fail(hetinv_context_t *ctx, const char *what) {
-  fprintf(stderr, PROG ": %s: %s\n", what, ctx ? hetinv_context_last_error_message(ctx) : "failed");
-  return 1;
 }
 
 /* Removes a directory this program created and the plain files in it. */
@@ -108,16 +83,16 @@ int main(int argc, char **argv) {
       usage(stdout);
       return 0;
     } else if (strcmp(a, "--iterations") == 0 && v) {
-      if (parse_count(a, v, 1, INT32_MAX, &iterations) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 1, INT32_MAX, &iterations) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--photons") == 0 && v) {
-      if (parse_count(a, v, 1, INT64_C(1) << 40, &photons) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 1, INT64_C(1) << 40, &photons) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--truth-photons") == 0 && v) {
-      if (parse_count(a, v, 1, INT64_C(1) << 40, &truth_photons) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 1, INT64_C(1) << 40, &truth_photons) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--threads") == 0 && v) {
-      if (parse_count(a, v, 0, 4096, &threads) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 0, 4096, &threads) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--require") == 0 && v) {
       char *comma = NULL, *end = NULL;
@@ -163,15 +138,15 @@ int main(int argc, char **argv) {
   init.thread_count = sc.threads;
   hetinv_context_t *ctx = NULL;
   int status = 0;
-  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) status = fail(NULL, "context");
-  double t0 = now(), t_sim = 0.0, t_opt = 0.0;
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) status = recon_fail(PROG, NULL, "context");
+  double t0 = recon_now(), t_sim = 0.0, t_opt = 0.0;
   hetinv_medium_t *truth = NULL, *rec = NULL;
   recon_imaging_t im;
   memset(&im, 0, sizeof im);
   if (status == 0 && recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
-    status = fail(ctx, "ground truth");
+    status = recon_fail(PROG, ctx, "ground truth");
   } else if (status == 0 && recon_imaging_build(ctx, truth, &sc, &im) != HETINV_SUCCESS) {
-    status = fail(ctx, "imaging configuration");
+    status = recon_fail(PROG, ctx, "imaging configuration");
   }
   /* Iterations of all stages, as recon_solve() schedules them. */
   int64_t coarse = (int64_t)ceil(sc.coarse_fraction * (double)sc.iterations);
@@ -183,20 +158,20 @@ int main(int argc, char **argv) {
            (int)hetinv_measurements_row_count(im.set), (int)hetinv_context_thread_count(ctx),
            (long long)sc.photons, (long long)sc.truth_photons, (long long)sc.iterations, (long long)all_iterations);
     fflush(stdout);
-    double t = now();
-    if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) status = fail(ctx, "simulated acquisition");
-    t_sim = now() - t;
+    double t = recon_now();
+    if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "simulated acquisition");
+    t_sim = recon_now() - t;
   }
   if (status == 0 && recon_solve(ctx, &sc, &im, false, true, &rec, &t_opt) != HETINV_SUCCESS) {
-    status = fail(ctx, "reconstruction");
+    status = recon_fail(PROG, ctx, "reconstruction");
   }
   recon_errors_t e;
   if (status == 0) {
     recon_errors(truth, rec, &e);
-    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = fail(ctx, "outputs");
+    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "outputs");
   }
   if (status == 0) {
-    double total = now() - t0;
+    double total = recon_now() - t0;
     printf("reconstruct simulate_seconds=%.3f\n", t_sim);
     printf("reconstruct optimisation_seconds=%.3f\n", t_opt);
     printf("reconstruct total_seconds=%.3f\n", total);

@@ -17,7 +17,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "recon.h"
 
@@ -30,29 +29,11 @@ static int usage(const char *what) {
   return 2;
 }
 
-static int parse_int(const char *opt, const char *text, long lo, long hi, long *out) {
-  char *end = NULL;
-  errno = 0;
-  long v = text ? strtol(text, &end, 10) : 0;
-  if (text == NULL || *text == '\0' || *end != '\0' || errno || v < lo || v > hi) {
-    fprintf(stderr, "hetinv-fig4: %s: '%s' is not an integer in [%ld, %ld]\n", opt, text ? text : "", lo, hi);
-    return -1;
-  }
-  *out = v;
-  return 0;
-}
-
-static double now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static const char *const CONFIG_NAMES[5] = {"", "(1) pathlength, neighbours", "(2) steady state",
                                              "(3) pathlength, orientations", "(4) (1) + (2) at low SNR"};
 
 /* The scene of configuration c and volume v. */
-static void make_scene(recon_scene_t *sc, bool full, int c, int v, long grid, long iterations, long photons,
+static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid, int64_t iterations, int64_t photons,
                        const char *out) {
   recon_scene_default(sc);
   snprintf(sc->name, sizeof sc->name, "Fig. 4 %s, volume %d", CONFIG_NAMES[c], v + 1);
@@ -98,7 +79,7 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, long grid, lo
 
 int main(int argc, char **argv) {
   bool full = false, quiet = false, configs[5] = {false, true, true, true, true};
-  long volumes = -1, iterations = -1, photons = -1, grid = -1;
+  int64_t volumes = -1, iterations = -1, photons = -1, grid = -1;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -111,16 +92,16 @@ int main(int argc, char **argv) {
       if (next == NULL) return usage("-o needs a directory");
       out = argv[++i];
     } else if (strcmp(a, "--volumes") == 0) {
-      if (parse_int(a, next, 1, 100, &volumes) < 0) return 2;
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 100, &volumes) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--iterations") == 0) {
-      if (parse_int(a, next, 1, 1000000000L, &iterations) < 0) return 2;
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &iterations) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--photons") == 0) {
-      if (parse_int(a, next, 1, 1000000000L, &photons) < 0) return 2;
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &photons) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--grid") == 0) {
-      if (parse_int(a, next, 2, 256, &grid) < 0) return 2;
+      if (recon_parse_count("hetinv-fig4", a, next, 2, 256, &grid) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--configs") == 0) {
       if (next == NULL) return usage("--configs needs a list such as 1,2,4");
@@ -149,10 +130,10 @@ int main(int argc, char **argv) {
     return 1;
   }
   double table_mean[5][3] = {{0}}, table_max[5][3] = {{0}}, seconds[5] = {0};
-  double t_all = now();
+  double t_all = recon_now();
   for (int c = 1; c <= 4; ++c) {
     if (!configs[c]) continue;
-    for (long v = 0; v < volumes; ++v) {
+    for (int64_t v = 0; v < volumes; ++v) {
       recon_scene_t sc;
       make_scene(&sc, full, c, (int)v, grid, iterations, photons, out);
       char msg[512];
@@ -164,7 +145,7 @@ int main(int argc, char **argv) {
       init.seed = sc.seed;
       hetinv_context_t *ctx = NULL;
       if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return 1;
-      double t0 = now();
+      double t0 = recon_now();
       hetinv_medium_t *truth = NULL, *rec = NULL;
       recon_imaging_t im;
       memset(&im, 0, sizeof im);
@@ -194,11 +175,11 @@ int main(int argc, char **argv) {
         table_mean[c][p] += e.mean[p] / (double)volumes;
         if (e.max[p] > table_max[c][p]) table_max[c][p] = e.max[p];
       }
-      seconds[c] += now() - t0;
+      seconds[c] += recon_now() - t0;
       if (!quiet) {
         printf("  mean/max relative error: sigma_a %.1f/%.1f %%, sigma_s %.1f/%.1f %%, g %.1f/%.1f %% (%.0f s)\n",
                100 * e.mean[0], 100 * e.max[0], 100 * e.mean[1], 100 * e.max[1], 100 * e.mean[2],
-               100 * e.max[2], now() - t0);
+               100 * e.max[2], recon_now() - t0);
       }
       hetinv_medium_destroy(&rec);
       hetinv_medium_destroy(&truth);
@@ -210,8 +191,8 @@ int main(int argc, char **argv) {
   snprintf(path, sizeof path, "%s/fig4_table.csv", out);
   char tmp[1220];
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
-  printf("\nFig. 4 (%s): relative error over %ld volume(s), mean over volumes of the voxel mean / max over volumes of the voxel max\n",
-         full ? "full size" : "reduced", volumes);
+  printf("\nFig. 4 (%s): relative error over %lld volume(s), mean over volumes of the voxel mean / max over volumes of the voxel max\n",
+         full ? "full size" : "reduced", (long long)volumes);
   printf("%-30s %15s %15s %15s %9s\n", "configuration", "sigma_a", "sigma_s", "g", "seconds");
   if (f) fprintf(f, "configuration,sigma_a_mean,sigma_a_max,sigma_s_mean,sigma_s_max,g_mean,g_max,seconds\n");
   for (int c = 1; c <= 4; ++c) {
@@ -226,7 +207,7 @@ int main(int argc, char **argv) {
     }
   }
   printf("paper (full size): every configuration within 7 %% mean and 15 %% max relative error\n");
-  printf("total %.0f s; table in %s\n", now() - t_all, path);
+  printf("total %.0f s; table in %s\n", recon_now() - t_all, path);
   if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
     fprintf(stderr, "hetinv-fig4: cannot write %s\n", path);
     return 1;

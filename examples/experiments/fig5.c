@@ -28,7 +28,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "recon.h"
 
@@ -63,30 +62,6 @@ static int usage(const char *what) {
   fprintf(stderr, PROG ": %s\n", what);
   print_usage(stderr);
   return 2;
-}
-
-static int parse_count(const char *opt, const char *text, int64_t lo, int64_t hi, int64_t *out) {
-  char *end = NULL;
-  errno = 0;
-  long long v = text ? strtoll(text, &end, 10) : 0;
-  if (text == NULL || *text == '\0' || *end != '\0' || errno || v < lo || v > hi) {
-    fprintf(stderr, PROG ": %s: '%s' is not an integer from %lld to %lld\n", opt, text ? text : "",
-            (long long)lo, (long long)hi);
-    return -1;
-  }
-  *out = v;
-  return 0;
-}
-
-static double now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int fail(hetinv_context_t *ctx, const char *what) {
-  fprintf(stderr, PROG ": %s: %s\n", what, ctx ? hetinv_context_last_error_message(ctx) : "failed");
-  return 1;
 }
 
 /* The Fig. 5 scene on an n × n × n grid. */
@@ -252,16 +227,16 @@ int main(int argc, char **argv) {
       out_dir = argv[++i];
     } else if (strcmp(a, "--grid") == 0) {
       ++i;
-      if (parse_count(a, v, 2, 64, &grid) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 2, 64, &grid) < 0) return 2;
     } else if (strcmp(a, "--iterations") == 0) {
       ++i;
-      if (parse_count(a, v, 1, INT32_MAX, &iterations) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 1, INT32_MAX, &iterations) < 0) return 2;
     } else if (strcmp(a, "--photons") == 0) {
       ++i;
-      if (parse_count(a, v, 1, INT64_C(1) << 40, &photons) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 1, INT64_C(1) << 40, &photons) < 0) return 2;
     } else if (strcmp(a, "--threads") == 0) {
       ++i;
-      if (parse_count(a, v, 0, 4096, &threads) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 0, 4096, &threads) < 0) return 2;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
       print_usage(stdout);
       return 0;
@@ -291,16 +266,16 @@ int main(int argc, char **argv) {
   init.seed = sc.seed;
   init.thread_count = sc.threads;
   hetinv_context_t *ctx = NULL;
-  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return fail(NULL, "context");
-  double t0 = now();
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return recon_fail(PROG, NULL, "context");
+  double t0 = recon_now();
   int status = 0;
   hetinv_medium_t *truth = NULL, *rec = NULL;
   recon_imaging_t im;
   memset(&im, 0, sizeof im);
   if (recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
-    status = fail(ctx, "ground truth");
+    status = recon_fail(PROG, ctx, "ground truth");
   } else if (recon_imaging_build(ctx, truth, &sc, &im) != HETINV_SUCCESS) {
-    status = fail(ctx, "imaging configuration");
+    status = recon_fail(PROG, ctx, "imaging configuration");
   }
   if (status == 0) {
     printf(PROG ": %s: %d x %d x %d voxels, eta %.2f, %d sources (front z_min, side x_min, back z_max), "
@@ -313,26 +288,26 @@ int main(int argc, char **argv) {
   char path[1200];
   if (status == 0) {
     if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) {
-      status = fail(ctx, "simulated acquisition");
+      status = recon_fail(PROG, ctx, "simulated acquisition");
     } else {
       snprintf(path, sizeof path, "%s/measurements.exr", sc.output);
-      if (recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = fail(ctx, "measurements.exr");
-      if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", now() - t0, path);
+      if (recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "measurements.exr");
+      if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
     }
   }
   double seconds = 0.0;
   if (status == 0 && recon_solve(ctx, &sc, &im, false, quiet, &rec, &seconds) != HETINV_SUCCESS) {
-    status = fail(ctx, "reconstruction");
+    status = recon_fail(PROG, ctx, "reconstruction");
   }
   recon_errors_t e;
   if (status == 0) {
     recon_errors(truth, rec, &e);
-    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = fail(ctx, "outputs");
+    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "outputs");
   }
-  double rel_rms = 0.0, tv = now();
+  double rel_rms = 0.0, tv = recon_now();
   int64_t view_photons = 0;
   if (status == 0 && novel_view_render(ctx, &sc, truth, rec, &rel_rms, &view_photons) != HETINV_SUCCESS) {
-    status = fail(ctx, "novel view");
+    status = recon_fail(PROG, ctx, "novel view");
   }
   if (status == 0) {
     double all_mean = 0.0, all_max = 0.0;
@@ -347,8 +322,8 @@ int main(int argc, char **argv) {
     printf("  %-9s %6.2f %%  %6.2f %%   (paper, Fig. 5, all parameters, full resolution)\n", "paper", 9.31, 19.73);
     printf("novel view (area light on y_min, camera on x_max, %d x %d, %lld photons): "
            "relative RMS difference truth vs recovery %.2f %% (%.1f s)\n",
-           VIEW_PIXELS, VIEW_PIXELS, (long long)view_photons, 100.0 * rel_rms, now() - tv);
-    printf("optimisation %.1f s, total %.1f s\n", seconds, now() - t0);
+           VIEW_PIXELS, VIEW_PIXELS, (long long)view_photons, 100.0 * rel_rms, recon_now() - tv);
+    printf("optimisation %.1f s, total %.1f s\n", seconds, recon_now() - t0);
     printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv, novel_view.png, novel_view.exr}\n",
            sc.output);
   }

@@ -9,7 +9,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "recon.h"
 
@@ -25,29 +24,6 @@ static int usage(const char *what) {
           "Without a scene, runs the built-in reduced Fig. 4 scene.\n",
           what);
   return 2;
-}
-
-static int parse_count(const char *opt, const char *text, int64_t lo, int64_t *out) {
-  char *end = NULL;
-  errno = 0;
-  long long v = text ? strtoll(text, &end, 10) : 0;
-  if (text == NULL || *text == '\0' || *end != '\0' || errno || v < lo) {
-    fprintf(stderr, "hetinv-reconstruct: %s: '%s' is not an integer >= %lld\n", opt, text ? text : "", (long long)lo);
-    return -1;
-  }
-  *out = v;
-  return 0;
-}
-
-static double now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int fail(hetinv_context_t *ctx, const char *what) {
-  fprintf(stderr, "hetinv-reconstruct: %s: %s\n", what, hetinv_context_last_error_message(ctx));
-  return 1;
 }
 
 static int run(int argc, char **argv) {
@@ -66,11 +42,11 @@ static int run(int argc, char **argv) {
     } else if (strcmp(a, "--quiet") == 0) {
       quiet = true;
     } else if (strcmp(a, "--threads") == 0) {
-      if (parse_count(a, i + 1 < argc ? argv[++i] : NULL, 0, &threads) < 0) return 2;
+      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 0, 4096, &threads) < 0) return 2;
     } else if (strcmp(a, "--iterations") == 0) {
-      if (parse_count(a, i + 1 < argc ? argv[++i] : NULL, 1, &iterations) < 0) return 2;
+      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT64_C(1) << 40, &iterations) < 0) return 2;
     } else if (strcmp(a, "--photons") == 0) {
-      if (parse_count(a, i + 1 < argc ? argv[++i] : NULL, 1, &photons) < 0) return 2;
+      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT64_C(1) << 40, &photons) < 0) return 2;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
       usage("recover sigma_a, sigma_s and g from boundary measurements");
       return 0;
@@ -102,8 +78,8 @@ static int run(int argc, char **argv) {
   init.seed = sc.seed;
   init.thread_count = sc.threads;
   hetinv_context_t *ctx = NULL;
-  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return fail(NULL, "context");
-  double t0 = now();
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return recon_fail("hetinv-reconstruct", NULL, "context");
+  double t0 = recon_now();
   int status = 0;
   /* Under MPI every rank runs the same reconstruction (the estimator shares
    * the work and returns the same values everywhere); rank 0 talks and writes. */
@@ -113,9 +89,9 @@ static int run(int argc, char **argv) {
   recon_imaging_t im;
   memset(&im, 0, sizeof im);
   if (recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
-    status = fail(ctx, "ground truth");
+    status = recon_fail("hetinv-reconstruct", ctx, "ground truth");
   } else if (recon_imaging_build(ctx, truth, &sc, &im) != HETINV_SUCCESS) {
-    status = fail(ctx, "imaging configuration");
+    status = recon_fail("hetinv-reconstruct", ctx, "imaging configuration");
   }
   if (status == 0 && root) {
     printf("hetinv-reconstruct: %s: %d x %d x %d voxels, %d sources, %d rows, %zu values\n", sc.name,
@@ -131,27 +107,27 @@ static int run(int argc, char **argv) {
     }
   } else if (status == 0) {
     if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) {
-      status = fail(ctx, "simulated acquisition");
+      status = recon_fail("hetinv-reconstruct", ctx, "simulated acquisition");
     } else {
       snprintf(path, sizeof path, "%s/measurements.exr", sc.output);
-      if (root && recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = fail(ctx, "measurements.exr");
-      if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", now() - t0, path);
+      if (root && recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = recon_fail("hetinv-reconstruct", ctx, "measurements.exr");
+      if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
     }
   }
   double seconds = 0.0;
   if (status == 0 && recon_solve(ctx, &sc, &im, resume, quiet, &rec, &seconds) != HETINV_SUCCESS) {
-    status = fail(ctx, "reconstruction");
+    status = recon_fail("hetinv-reconstruct", ctx, "reconstruction");
   }
   if (status == 0 && root) {
     recon_errors_t e;
     recon_errors(truth, rec, &e);
-    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = fail(ctx, "outputs");
+    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = recon_fail("hetinv-reconstruct", ctx, "outputs");
     printf("\nrelative error of the recovery (%zu voxels):\n", hetinv_medium_voxel_count(truth));
     printf("  parameter   mean      max\n");
     for (int p = 0; p < 3; ++p) {
       printf("  %-9s %6.2f %%  %6.2f %%\n", hetinv_param_name(p), 100.0 * e.mean[p], 100.0 * e.max[p]);
     }
-    printf("optimisation %.1f s, total %.1f s\n", seconds, now() - t0);
+    printf("optimisation %.1f s, total %.1f s\n", seconds, recon_now() - t0);
     printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv}\n", sc.output);
   }
   hetinv_medium_destroy(&rec);

@@ -147,6 +147,15 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
 FILE *recon_text_begin(const char *path, char *tmp, size_t tmp_size);
 int recon_text_commit(FILE *f, const char *tmp, const char *path);
 
+/* Command-line helpers (cli.c). recon_parse_count: an integer option in
+ * [lo, hi], or -1 after a message "<prog>: <opt>: '<text>' is not ...".
+ * recon_now: monotonic seconds. recon_fail: prints "<prog>: <what>: " and
+ * the context's last error message (ctx may be NULL); returns 1. */
+int recon_parse_count(const char *prog, const char *opt, const char *text, int64_t lo, int64_t hi,
+                      int64_t *out);
+double recon_now(void);
+int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
+
 /* mkdir -p; 0 on success. */
 int recon_make_dirs(const char *path);
 

@@ -1,0 +1,33 @@
+/* Command-line helpers shared by hetinv-reconstruct, the experiment
+ * programs and the reconstruction bench. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+
+#include "recon.h"
+
+int recon_parse_count(const char *prog, const char *opt, const char *text, int64_t lo, int64_t hi,
+                      int64_t *out) {
+  char *end = NULL;
+  errno = 0;
+  long long v = text ? strtoll(text, &end, 10) : 0;
+  if (text == NULL || *text == '\0' || *end != '\0' || errno || v < lo || v > hi) {
+    fprintf(stderr, "%s: %s: '%s' is not an integer from %lld to %lld\n", prog, opt, text ? text : "",
+            (long long)lo, (long long)hi);
+    return -1;
+  }
+  *out = v;
+  return 0;
+}
+
+double recon_now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what) {
+  fprintf(stderr, "%s: %s: %s\n", prog, what, ctx ? hetinv_context_last_error_message(ctx) : "failed");
+  return 1;
+}
