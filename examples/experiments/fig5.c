@@ -87,7 +87,7 @@ static void fig5_scene(recon_scene_t *sc, int32_t n, bool full) {
   sc->source_faces = 1u << HETINV_FACE_Z_MIN | 1u << HETINV_FACE_X_MIN | 1u << HETINV_FACE_Z_MAX;
   sc->camera_faces = 0;
   /* Every boundary pixel a source (every 2nd in --full): with every 2nd
-   * the reduced run had a third of the sources and 38-53 % mean errors. */
+   * the reduced run had a quarter of the sources and 38-53 % mean errors. */
   sc->source_stride = full ? 2 : 1;
   /* Weights 1/σ² of the noise model: under relative weights the late,
    * read-noise-level bins dominate the loss and the fit wanders off. */
