@@ -10,7 +10,7 @@
 #include "estimator/pass.h"
 #include "estimator/record.h"
 #include "hetinv/param.h"
-#include "optimize/param_map_internal.h"
+#include "param/param_map_internal.h"
 #include "medium/medium_internal.h"
 #include "sampling/measurements_internal.h"
 

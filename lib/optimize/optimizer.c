@@ -6,7 +6,7 @@
 #include "core/alloc.h"
 #include "core/error.h"
 #include "optimize/optimizer_internal.h"
-#include "optimize/param_map_internal.h"
+#include "param/param_map_internal.h"
 
 typedef struct param_info {
   double def, lo, hi;

@@ -8,7 +8,7 @@
 #include "core/error.h"
 #include "hetinv/param.h"
 #include "medium/medium_internal.h"
-#include "optimize/param_map_internal.h"
+#include "param/param_map_internal.h"
 
 typedef struct axis_map {
   int32_t *lo, *hi; /* per voxel: the two cells it reads */
