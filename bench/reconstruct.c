@@ -4,7 +4,7 @@
  * acquisition, the coarse-to-fine optimisation, errors and output files.
  *
  *   hetinv-bench-reconstruct [--iterations N] [--photons N] [--truth-photons N]
- *                            [--threads N] [-o DIR] [--require MEAN,MAX]
+ *                            [--threads N] [-o DIR] [--require MEAN,MAX] [--seeds A-B]
  *
  * --iterations: of the finest stage (default the scene's, 600); coarser
  * stages get the scene's fraction of it, as in hetinv-reconstruct.
@@ -28,7 +28,17 @@
  * any parameter's mean or max relative error is above them, naming it;
  * the test reconstruct_accuracy runs the default scene so. Otherwise a
  * benchmark: it exits non-zero only on a library error (1) or a usage
- * error (2). */
+ * error (2).
+ *
+ * --seeds A-B: the same scene on the truth volumes A..B, volume s with
+ * truth seed s and noise seed s (the built-in volume is seed 1), so that an
+ * accuracy figure is not one lucky volume. Each volume prints its lines
+ * prefixed "reconstruct seed=s", then one summary line
+ *
+ *   reconstruct seed=s sigma_a=MEAN/MAX sigma_s=MEAN/MAX g=MEAN/MAX seconds=T pass=yes|no|-
+ *
+ * and at the end "reconstruct volumes=N passed=P" (pass counts need
+ * --require). With -o, volume s writes into DIR/seed-s. */
 #include <dirent.h>
 #include <errno.h>
 #include <math.h>
@@ -44,7 +54,7 @@
 static void usage(FILE *f) {
   fprintf(f,
           "usage: " PROG " [--iterations N] [--photons N] [--truth-photons N]\n"
-          "                                [--threads N] [-o DIR] [--require MEAN,MAX]\n"
+          "                                [--threads N] [-o DIR] [--require MEAN,MAX] [--seeds A-B]\n"
           "  --iterations N  iterations of the finest stage (default: the scene's)\n"
           "  --photons N     photons per emitter of the optimiser (default: the scene's)\n"
           "  --truth-photons N  photons per emitter of the simulated measurements\n"
@@ -52,7 +62,9 @@ static void usage(FILE *f) {
           "  --threads N     threads, 0 = all cores (default: the scene's)\n"
           "  -o DIR          keep the outputs in DIR (default: a temporary directory, removed)\n"
           "  --require MEAN,MAX  exit 3 if a parameter's mean or max relative error is\n"
-          "                  above these (e.g. 0.07,0.15)\n");
+          "                  above these (e.g. 0.07,0.15)\n"
+          "  --seeds A-B     run truth volumes A..B (truth and noise seed s), one\n"
+          "                  summary line each and a pass count\n");
 }
 
 /* Removes a directory this program created and the plain files in it. */
@@ -71,11 +83,95 @@ static void remove_tree(const char *dir) {
   rmdir(dir);
 }
 
+/* Runs one volume of the scene end to end into sc->output; prints its
+ * figures prefixed by `tag`. 0 on success, 1 on a library error, 3 when
+ * `require` is set and missed. */
+static int run_volume(recon_scene_t *sc, const char *tag, const double require[2], recon_errors_t *e,
+                      double *seconds) {
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.seed = sc->seed;
+  init.thread_count = sc->threads;
+  hetinv_context_t *ctx = NULL;
+  int status = 0;
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) status = recon_fail(PROG, NULL, "context");
+  double t0 = recon_now(), t_sim = 0.0, t_opt = 0.0;
+  hetinv_medium_t *truth = NULL, *rec = NULL;
+  recon_imaging_t im;
+  memset(&im, 0, sizeof im);
+  if (status == 0 && recon_truth_create(ctx, sc, &truth) != HETINV_SUCCESS) {
+    status = recon_fail(PROG, ctx, "ground truth");
+  } else if (status == 0 && recon_imaging_build(ctx, truth, sc, &im) != HETINV_SUCCESS) {
+    status = recon_fail(PROG, ctx, "imaging configuration");
+  }
+  /* Iterations of all stages, as recon_solve() schedules them. */
+  int64_t coarse = (int64_t)ceil(sc->coarse_fraction * (double)sc->iterations);
+  int64_t all_iterations =
+      sc->iterations + (sc->level_count - 1) * coarse + (sc->layerwise_layers > 0 ? coarse : 0);
+  if (status == 0) {
+    printf("%s scene=\"%s\" grid=%dx%dx%d sources=%d rows=%d threads=%d photons=%lld truth_photons=%lld "
+           "iterations=%lld iterations_all_stages=%lld\n",
+           tag, sc->name, (int)sc->grid[0], (int)sc->grid[1], (int)sc->grid[2], (int)im.emitter_count,
+           (int)hetinv_measurements_row_count(im.set), (int)hetinv_context_thread_count(ctx),
+           (long long)sc->photons, (long long)sc->truth_photons, (long long)sc->iterations,
+           (long long)all_iterations);
+    fflush(stdout);
+    double t = recon_now();
+    if (recon_simulate(ctx, sc, truth, &im) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "simulated acquisition");
+    t_sim = recon_now() - t;
+  }
+  if (status == 0 && recon_solve(ctx, sc, &im, false, true, &rec, &t_opt) != HETINV_SUCCESS) {
+    status = recon_fail(PROG, ctx, "reconstruction");
+  }
+  if (status == 0) {
+    recon_errors(truth, rec, e);
+    if (recon_write_outputs(ctx, sc, truth, rec, e) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "outputs");
+  }
+  if (status == 0) {
+    *seconds = recon_now() - t0;
+    printf("%s simulate_seconds=%.3f\n", tag, t_sim);
+    printf("%s optimisation_seconds=%.3f\n", tag, t_opt);
+    printf("%s total_seconds=%.3f\n", tag, *seconds);
+    printf("%s seconds_per_iteration=%.5f\n", tag, all_iterations > 0 ? t_opt / (double)all_iterations : 0.0);
+    for (int p = 0; p < 3; ++p) {
+      printf("%s param=%s mean_rel_error=%.4f max_rel_error=%.4f\n", tag, hetinv_param_name(p), e->mean[p],
+             e->max[p]);
+    }
+    for (int p = 0; require[0] > 0.0 && p < 3; ++p) {
+      if (e->mean[p] > require[0] || e->max[p] > require[1]) {
+        fprintf(stderr, PROG ": %s: %s: mean/max relative error %.4f/%.4f above the required %.4f/%.4f\n",
+                tag, hetinv_param_name(p), e->mean[p], e->max[p], require[0], require[1]);
+        status = 3;
+      }
+    }
+  }
+  hetinv_medium_destroy(&rec);
+  hetinv_medium_destroy(&truth);
+  recon_imaging_release(&im);
+  hetinv_context_destroy(&ctx);
+  fflush(stdout);
+  return status;
+}
+
+/* "A-B" with 0 <= A <= B < 2^31, or -1 after a message. */
+static int parse_seeds(const char *text, int64_t *first, int64_t *last) {
+  char *dash = NULL, *end = NULL;
+  errno = 0;
+  long long a = strtoll(text, &dash, 10), b = -1;
+  if (dash != text && *dash == '-') b = strtoll(dash + 1, &end, 10);
+  if (errno != 0 || end == NULL || end == dash + 1 || *end != '\0' || a < 0 || b < a || b > INT32_MAX) {
+    fprintf(stderr, PROG ": --seeds wants A-B with 0 <= A <= B <= %d (e.g. 2-11), not '%s'\n", INT32_MAX, text);
+    return -1;
+  }
+  *first = a;
+  *last = b;
+  return 0;
+}
+
 int main(int argc, char **argv) {
   recon_scene_t sc;
   recon_scene_default(&sc);
   const char *out_dir = NULL;
-  int64_t iterations = -1, photons = -1, truth_photons = -1, threads = -1;
+  int64_t iterations = -1, photons = -1, truth_photons = -1, threads = -1, seed_first = -1, seed_last = -1;
   double require[2] = {-1.0, -1.0};
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -93,6 +189,9 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--threads") == 0 && v) {
       if (recon_parse_count(PROG, a, v, 0, 4096, &threads) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--seeds") == 0 && v) {
+      if (parse_seeds(v, &seed_first, &seed_last) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--require") == 0 && v) {
       char *comma = NULL, *end = NULL;
@@ -118,9 +217,8 @@ int main(int argc, char **argv) {
   if (threads >= 0) sc.threads = (int32_t)threads;
   char tmp_dir[512] = "";
   if (out_dir) {
-    snprintf(sc.output, sizeof sc.output, "%s", out_dir);
-    if (recon_make_dirs(sc.output) != 0) {
-      fprintf(stderr, PROG ": cannot create '%s': %s\n", sc.output, strerror(errno));
+    if (recon_make_dirs(out_dir) != 0) {
+      fprintf(stderr, PROG ": cannot create '%s': %s\n", out_dir, strerror(errno));
       return 1;
     }
   } else {
@@ -130,68 +228,48 @@ int main(int argc, char **argv) {
       fprintf(stderr, PROG ": cannot create a temporary directory '%s': %s\n", tmp_dir, strerror(errno));
       return 1;
     }
-    snprintf(sc.output, sizeof sc.output, "%s", tmp_dir);
+    out_dir = tmp_dir;
   }
 
-  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
-  init.seed = sc.seed;
-  init.thread_count = sc.threads;
-  hetinv_context_t *ctx = NULL;
   int status = 0;
-  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) status = recon_fail(PROG, NULL, "context");
-  double t0 = recon_now(), t_sim = 0.0, t_opt = 0.0;
-  hetinv_medium_t *truth = NULL, *rec = NULL;
-  recon_imaging_t im;
-  memset(&im, 0, sizeof im);
-  if (status == 0 && recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
-    status = recon_fail(PROG, ctx, "ground truth");
-  } else if (status == 0 && recon_imaging_build(ctx, truth, &sc, &im) != HETINV_SUCCESS) {
-    status = recon_fail(PROG, ctx, "imaging configuration");
-  }
-  /* Iterations of all stages, as recon_solve() schedules them. */
-  int64_t coarse = (int64_t)ceil(sc.coarse_fraction * (double)sc.iterations);
-  int64_t all_iterations = sc.iterations + (sc.level_count - 1) * coarse + (sc.layerwise_layers > 0 ? coarse : 0);
-  if (status == 0) {
-    printf("reconstruct scene=\"%s\" grid=%dx%dx%d sources=%d rows=%d threads=%d photons=%lld truth_photons=%lld "
-           "iterations=%lld iterations_all_stages=%lld\n",
-           sc.name, (int)sc.grid[0], (int)sc.grid[1], (int)sc.grid[2], (int)im.emitter_count,
-           (int)hetinv_measurements_row_count(im.set), (int)hetinv_context_thread_count(ctx),
-           (long long)sc.photons, (long long)sc.truth_photons, (long long)sc.iterations, (long long)all_iterations);
-    fflush(stdout);
-    double t = recon_now();
-    if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "simulated acquisition");
-    t_sim = recon_now() - t;
-  }
-  if (status == 0 && recon_solve(ctx, &sc, &im, false, true, &rec, &t_opt) != HETINV_SUCCESS) {
-    status = recon_fail(PROG, ctx, "reconstruction");
-  }
   recon_errors_t e;
-  if (status == 0) {
-    recon_errors(truth, rec, &e);
-    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "outputs");
-  }
-  if (status == 0) {
-    double total = recon_now() - t0;
-    printf("reconstruct simulate_seconds=%.3f\n", t_sim);
-    printf("reconstruct optimisation_seconds=%.3f\n", t_opt);
-    printf("reconstruct total_seconds=%.3f\n", total);
-    printf("reconstruct seconds_per_iteration=%.5f\n", all_iterations > 0 ? t_opt / (double)all_iterations : 0.0);
-    for (int p = 0; p < 3; ++p) {
-      printf("reconstruct param=%s mean_rel_error=%.4f max_rel_error=%.4f\n", hetinv_param_name(p), e.mean[p],
-             e.max[p]);
-    }
-    for (int p = 0; require[0] > 0.0 && p < 3; ++p) {
-      if (e.mean[p] > require[0] || e.max[p] > require[1]) {
-        fprintf(stderr, PROG ": %s: mean/max relative error %.4f/%.4f above the required %.4f/%.4f\n",
-                hetinv_param_name(p), e.mean[p], e.max[p], require[0], require[1]);
-        status = 3;
+  double seconds = 0.0;
+  if (seed_first < 0) {
+    snprintf(sc.output, sizeof sc.output, "%s", out_dir);
+    status = run_volume(&sc, "reconstruct", require, &e, &seconds);
+  } else {
+    int64_t passed = 0, count = 0;
+    for (int64_t s = seed_first; s <= seed_last; ++s) {
+      char tag[64];
+      snprintf(tag, sizeof tag, "reconstruct seed=%lld", (long long)s);
+      snprintf(sc.output, sizeof sc.output, "%s/seed-%lld", out_dir, (long long)s);
+      if (recon_make_dirs(sc.output) != 0) {
+        fprintf(stderr, PROG ": cannot create '%s': %s\n", sc.output, strerror(errno));
+        status = 1;
+        break;
       }
+      sc.truth_seed = (uint64_t)s;
+      sc.noise_model.seed = (uint64_t)s;
+      int st = run_volume(&sc, tag, require, &e, &seconds);
+      if (tmp_dir[0]) remove_tree(sc.output);
+      if (st == 1) {
+        status = 1;
+        break;
+      }
+      ++count;
+      passed += st == 0;
+      printf("%s sigma_a=%.4f/%.4f sigma_s=%.4f/%.4f g=%.4f/%.4f seconds=%.1f pass=%s\n", tag, e.mean[0],
+             e.max[0], e.mean[1], e.max[1], e.mean[2], e.max[2], seconds,
+             require[0] > 0.0 ? (st == 0 ? "yes" : "no") : "-");
+      fflush(stdout);
+      if (st == 3) status = 3;
+    }
+    if (require[0] > 0.0) {
+      printf("reconstruct volumes=%lld passed=%lld\n", (long long)count, (long long)passed);
+    } else {
+      printf("reconstruct volumes=%lld passed=-\n", (long long)count);
     }
   }
-  hetinv_medium_destroy(&rec);
-  hetinv_medium_destroy(&truth);
-  recon_imaging_release(&im);
-  hetinv_context_destroy(&ctx);
   if (tmp_dir[0]) remove_tree(tmp_dir);
   return status;
 }
