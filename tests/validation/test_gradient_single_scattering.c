@@ -1,6 +1,6 @@
 /* Score-function gradients of once-scattered radiance against the
  * derivatives of the closed forms of an index-matched homogeneous slab
- * (Prahl 1988, thesis §3, Eqs. 3.30–3.32; transport-cases.md), with
+ * (Prahl 1988, thesis §3, Eqs. 3.30–3.32; tests/validation/transport-cases.md), with
  * HETINV_ESTIMATOR_MIN_SCATTERING = MAX_SCATTERING = 1:
  *   L_R(μ)  = a E p(Θ) F_R(τ),  F_R = μ0/(μ+μ0) [1 − e^{−τ(1/μ + 1/μ0)}]
  *   L_T(μ)  = a E p(Θ) F_T(τ),  F_T = μ0/(μ0−μ) [e^{−τ/μ0} − e^{−τ/μ}]   (μ ≠ μ0)

@@ -1,5 +1,5 @@
 /* Total reflectance and transmittance of slabs against exact external
- * references (/work/shared/reference/transport-cases.md, cases A1–A3):
+ * references (tests/validation/transport-cases.md, cases A1–A3):
  * adding-doubling and van de Hulst's tables, as reproduced by MCML and by
  * Prahl's iad/iadpython. A collimated pencil beam enters at normal
  * incidence at the centre of the top face (z = max); hemispherical

@@ -1,6 +1,6 @@
 /* Once-scattered radiance of an index-matched homogeneous slab against the
  * closed forms of Prahl (1988, thesis §3, Eqs. 3.30–3.32), quoted in
- * /work/shared/reference/transport-cases.md:
+ * tests/validation/transport-cases.md:
  *   L_R(μ) = a E p(Θ) μ0/(μ+μ0) [1 − e^{−τ(1/μ + 1/μ0)}]
  *   L_T(μ) = a E p(Θ) μ0/(μ0−μ) [e^{−τ/μ0} − e^{−τ/μ}],  μ ≠ μ0
  *   L_T(μ0) = a E p(Θ) (τ/μ0) e^{−τ/μ0}
