@@ -8,8 +8,9 @@ mode=${1:-demo}
 pkgs="build-essential cmake pkg-config libopenexr-dev librandom123-dev libpng-dev libcjson-dev"
 if [ "$mode" = test ]; then
   # openmpi-*: the MPI build variant (HETINV_WITH_MPI) of scripts/test.sh;
-  # python3, python3-numpy: the Python binding's tests (numpy arrays are a tested path)
-  pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils openmpi-bin libopenmpi-dev python3 python3-numpy"
+  # python3, python3-numpy, python3-matplotlib: the Python binding's tests (numpy
+  # arrays are a tested path) and the Fig. 4(a) figure example
+  pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils openmpi-bin libopenmpi-dev python3 python3-numpy python3-matplotlib"
 fi
 
 missing=""
