@@ -7,24 +7,36 @@
  * parameter and configuration.
  *
  *   hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]
- *               [--photons N] [--grid N] [-o DIR] [--quiet]
+ *               [--photons N] [--grid N] [--scale S] [-o DIR] [--quiet]
  *
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
  * cube, 6 × 6 section, one 0.1 mm imaging pixel and bin per voxel; 2
  * volumes) ran in 12 min 19 s on two cores; --full is the paper's size
- * (10 mm cube, 25 × 25 section, 0.1 mm pixels and bins, 5 volumes). */
+ * (10 mm cube, 25 × 25 section, 0.1 mm pixels and bins, 5 volumes).
+ *
+ * --scale S multiplies the σa and σs of the truth's range, the bounds and
+ * the start by S: the paper prints [1, 10] mm⁻¹, which makes its 10 mm cube
+ * opaque (its centre 10–100 mean free paths from every face); --full reads
+ * them as cm⁻¹ (S = 0.1) unless told otherwise.
+ *
+ * Resumable cell by cell: each finished (configuration, volume) writes
+ * DIR/config<c>_volume<v>/cell.csv with its errors, time and a key of
+ * every setting it depends on; a rerun with the same settings reads it
+ * back instead of recomputing, and an interrupted cell continues from its
+ * checkpoint. Delete a cell's folder to recompute it. */
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "cells.h"
 #include "recon.h"
 
 static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--grid N] [-o DIR] [--quiet]\n",
+          "                   [--photons N] [--grid N] [--scale S] [-o DIR] [--quiet]\n",
           what);
   return 2;
 }
@@ -34,7 +46,7 @@ static const char *const CONFIG_NAMES[5] = {"", "(1) pathlength, neighbours", "(
 
 /* The scene of configuration c and volume v. */
 static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid, int64_t iterations, int64_t photons,
-                       const char *out) {
+                       double scale, const char *out) {
   recon_scene_default(sc);
   snprintf(sc->name, sizeof sc->name, "Fig. 4 %s, volume %d", CONFIG_NAMES[c], v + 1);
   sc->config = (recon_config_t)c;
@@ -74,12 +86,53 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
   }
   if (iterations > 0) sc->iterations = iterations;
   if (photons > 0) sc->photons = photons;
+  for (int p = 0; p < 2; ++p) { /* σa and σs; g has no unit */
+    sc->truth_lo[p] *= scale;
+    sc->truth_hi[p] *= scale;
+    sc->bounds_lo[p] *= scale;
+    sc->bounds_hi[p] *= scale;
+    sc->init[p] *= scale;
+  }
   snprintf(sc->output, sizeof sc->output, "%s/config%d_volume%d", out, c, v + 1);
+}
+
+/* Simulates, reconstructs and writes one cell's outputs; an interrupted
+ * earlier run of the same cell continues from its checkpoint. */
+static int run_cell(const recon_scene_t *sc, bool quiet, experiment_cell_t *cell) {
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.seed = sc->seed;
+  hetinv_context_t *ctx = NULL;
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return recon_fail("hetinv-fig4", NULL, "context");
+  double t0 = recon_now();
+  hetinv_medium_t *truth = NULL, *rec = NULL;
+  recon_imaging_t im;
+  memset(&im, 0, sizeof im);
+  hetinv_result_t r = recon_truth_create(ctx, sc, &truth);
+  if (r == HETINV_SUCCESS) r = recon_imaging_build(ctx, truth, sc, &im);
+  if (r == HETINV_SUCCESS && !quiet) {
+    printf("%s: %d sources, %d rows, %zu values\n", sc->name, (int)im.emitter_count,
+           (int)hetinv_measurements_row_count(im.set), hetinv_measurements_value_count(im.set));
+    fflush(stdout);
+  }
+  if (r == HETINV_SUCCESS) r = recon_simulate(ctx, sc, truth, &im);
+  if (r == HETINV_SUCCESS) r = recon_solve(ctx, sc, &im, true, quiet, &rec, NULL);
+  if (r == HETINV_SUCCESS) {
+    recon_errors(truth, rec, &cell->errors);
+    r = recon_write_outputs(ctx, sc, truth, rec, &cell->errors);
+  }
+  cell->seconds = recon_now() - t0;
+  int status = r == HETINV_SUCCESS ? 0 : recon_fail("hetinv-fig4", ctx, sc->name);
+  hetinv_medium_destroy(&rec);
+  hetinv_medium_destroy(&truth);
+  recon_imaging_release(&im);
+  hetinv_context_destroy(&ctx);
+  return status;
 }
 
 int main(int argc, char **argv) {
   bool full = false, quiet = false, configs[5] = {false, true, true, true, true};
   int64_t volumes = -1, iterations = -1, photons = -1, grid = -1;
+  double scale = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -103,6 +156,15 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--grid") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 2, 256, &grid) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--scale") == 0) {
+      char *end = NULL;
+      scale = next ? strtod(next, &end) : -1.0;
+      if (next == NULL || end == next || *end != '\0' || !(scale >= 1e-3 && scale <= 1e3)) {
+        char msg[300];
+        snprintf(msg, sizeof msg, "--scale: '%s' is not a number from 0.001 to 1000", next ? next : "");
+        return usage(msg);
+      }
+      ++i;
     } else if (strcmp(a, "--configs") == 0) {
       if (next == NULL) return usage("--configs needs a list such as 1,2,4");
       for (int c = 1; c <= 4; ++c) configs[c] = false;
@@ -125,6 +187,7 @@ int main(int argc, char **argv) {
     }
   }
   if (volumes < 0) volumes = full ? 5 : 2;
+  if (scale < 0.0) scale = full ? 0.1 : 1.0;
   if (recon_make_dirs(out) != 0) {
     fprintf(stderr, "hetinv-fig4: cannot create '%s': %s\n", out, strerror(errno));
     return 1;
@@ -135,56 +198,37 @@ int main(int argc, char **argv) {
     if (!configs[c]) continue;
     for (int64_t v = 0; v < volumes; ++v) {
       recon_scene_t sc;
-      make_scene(&sc, full, c, (int)v, grid, iterations, photons, out);
+      make_scene(&sc, full, c, (int)v, grid, iterations, photons, scale, out);
       char msg[512];
-      if (recon_scene_check(&sc, msg, sizeof msg) < 0 || recon_make_dirs(sc.output) != 0) {
+      if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);
         return 1;
       }
-      hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
-      init.seed = sc.seed;
-      hetinv_context_t *ctx = NULL;
-      if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return 1;
-      double t0 = recon_now();
-      hetinv_medium_t *truth = NULL, *rec = NULL;
-      recon_imaging_t im;
-      memset(&im, 0, sizeof im);
-      hetinv_result_t r = recon_truth_create(ctx, &sc, &truth);
-      if (r == HETINV_SUCCESS) r = recon_imaging_build(ctx, truth, &sc, &im);
-      if (r == HETINV_SUCCESS && !quiet) {
-        printf("%s: %d sources, %d rows, %zu values\n", sc.name, (int)im.emitter_count,
-               (int)hetinv_measurements_row_count(im.set), hetinv_measurements_value_count(im.set));
-        fflush(stdout);
+      if (recon_make_dirs(sc.output) != 0) {
+        fprintf(stderr, "hetinv-fig4: cannot create '%s': %s\n", sc.output, strerror(errno));
+        return 1;
       }
-      if (r == HETINV_SUCCESS) r = recon_simulate(ctx, &sc, truth, &im);
-      if (r == HETINV_SUCCESS) r = recon_solve(ctx, &sc, &im, false, quiet, &rec, NULL);
-      recon_errors_t e;
-      if (r == HETINV_SUCCESS) {
-        recon_errors(truth, rec, &e);
-        r = recon_write_outputs(ctx, &sc, truth, rec, &e);
-      }
-      if (r != HETINV_SUCCESS) {
-        fprintf(stderr, "hetinv-fig4: %s: %s\n", sc.name, hetinv_context_last_error_message(ctx));
-        hetinv_medium_destroy(&rec);
-        hetinv_medium_destroy(&truth);
-        recon_imaging_release(&im);
-        hetinv_context_destroy(&ctx);
+      char key[1024];
+      experiment_cell_key(&sc, key, sizeof key);
+      experiment_cell_t cell;
+      bool reused = experiment_cell_load(sc.output, key, &cell);
+      if (!reused && run_cell(&sc, quiet, &cell) != 0) return 1;
+      if (!reused && experiment_cell_store(sc.output, key, &cell) != 0) {
+        fprintf(stderr, "hetinv-fig4: %s/cell.csv: %s\n", sc.output, strerror(errno));
         return 1;
       }
       for (int p = 0; p < 3; ++p) {
-        table_mean[c][p] += e.mean[p] / (double)volumes;
-        if (e.max[p] > table_max[c][p]) table_max[c][p] = e.max[p];
+        table_mean[c][p] += cell.errors.mean[p] / (double)volumes;
+        if (cell.errors.max[p] > table_max[c][p]) table_max[c][p] = cell.errors.max[p];
       }
-      seconds[c] += recon_now() - t0;
+      seconds[c] += cell.seconds;
       if (!quiet) {
-        printf("  mean/max relative error: sigma_a %.1f/%.1f %%, sigma_s %.1f/%.1f %%, g %.1f/%.1f %% (%.0f s)\n",
-               100 * e.mean[0], 100 * e.max[0], 100 * e.mean[1], 100 * e.max[1], 100 * e.mean[2],
-               100 * e.max[2], recon_now() - t0);
+        const recon_errors_t *e = &cell.errors;
+        printf("%s: mean/max relative error: sigma_a %.1f/%.1f %%, sigma_s %.1f/%.1f %%, g %.1f/%.1f %% (%.0f s%s)\n",
+               sc.name, 100 * e->mean[0], 100 * e->max[0], 100 * e->mean[1], 100 * e->max[1], 100 * e->mean[2],
+               100 * e->max[2], cell.seconds, reused ? ", stored by an earlier run" : "");
+        fflush(stdout);
       }
-      hetinv_medium_destroy(&rec);
-      hetinv_medium_destroy(&truth);
-      recon_imaging_release(&im);
-      hetinv_context_destroy(&ctx);
     }
   }
   char path[1200];

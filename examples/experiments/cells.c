@@ -1,0 +1,54 @@
+/* Finished experiment cells as small CSV files (cells.h). */
+#include "cells.h"
+
+#include <stdio.h>
+#include <string.h>
+
+void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
+  /* %.17g: the key is equal only for bitwise-equal settings. */
+  snprintf(key, key_size,
+           "config=%d grid=%dx%dx%d size=%.17g eta=%.17g truth_seed=%llu noise_seed=%llu "
+           "truth=%.17g:%.17g,%.17g:%.17g,%.17g:%.17g bounds=%.17g:%.17g,%.17g:%.17g,%.17g:%.17g "
+           "pixels_per_voxel=%d bin_width=%.17g iterations=%lld photons=%lld truth_photons=%lld seed=%llu",
+           (int)sc->config, (int)sc->grid[0], (int)sc->grid[1], (int)sc->grid[2], sc->size, sc->eta,
+           (unsigned long long)sc->truth_seed, (unsigned long long)sc->noise_model.seed, sc->truth_lo[0],
+           sc->truth_hi[0], sc->truth_lo[1], sc->truth_hi[1], sc->truth_lo[2], sc->truth_hi[2], sc->bounds_lo[0],
+           sc->bounds_hi[0], sc->bounds_lo[1], sc->bounds_hi[1], sc->bounds_lo[2], sc->bounds_hi[2],
+           (int)sc->pixels_per_voxel, sc->bin_width, (long long)sc->iterations, (long long)sc->photons,
+           (long long)sc->truth_photons, (unsigned long long)sc->seed);
+}
+
+static const char *const NAMES[3] = {"sigma_a", "sigma_s", "g"};
+
+bool experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell) {
+  char path[1200], line[2048];
+  snprintf(path, sizeof path, "%s/cell.csv", dir);
+  FILE *f = fopen(path, "r");
+  if (f == NULL) return false;
+  bool ok = fgets(line, sizeof line, f) != NULL && strncmp(line, "key,", 4) == 0;
+  if (ok) {
+    line[strcspn(line, "\n")] = '\0';
+    ok = strcmp(line + 4, key) == 0;
+  }
+  ok = ok && fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,max\n") == 0;
+  for (int p = 0; ok && p < 3; ++p) {
+    char name[16];
+    ok = fgets(line, sizeof line, f) != NULL &&
+         sscanf(line, "%15[a-z_],%lf,%lf", name, &cell->errors.mean[p], &cell->errors.max[p]) == 3 &&
+         strcmp(name, NAMES[p]) == 0;
+  }
+  ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "seconds,%lf", &cell->seconds) == 1;
+  fclose(f);
+  return ok;
+}
+
+int experiment_cell_store(const char *dir, const char *key, const experiment_cell_t *cell) {
+  char path[1200], tmp[1220];
+  snprintf(path, sizeof path, "%s/cell.csv", dir);
+  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  if (f == NULL) return -1;
+  fprintf(f, "key,%s\nparam,mean,max\n", key);
+  for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.9g,%.9g\n", NAMES[p], cell->errors.mean[p], cell->errors.max[p]);
+  fprintf(f, "seconds,%.3f\n", cell->seconds);
+  return recon_text_commit(f, tmp, path);
+}

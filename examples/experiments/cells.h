@@ -1,0 +1,27 @@
+/* One finished cell of an experiment table (an imaging configuration on
+ * one volume), kept on disk so a long table is built across sittings: a
+ * rerun reads finished cells back instead of recomputing them. */
+#ifndef HETINV_EXPERIMENT_CELLS_H
+#define HETINV_EXPERIMENT_CELLS_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include "recon.h"
+
+typedef struct experiment_cell {
+  recon_errors_t errors;
+  double seconds;   /* of the run that computed it */
+} experiment_cell_t;
+
+/* The text that identifies what a cell computed: every scene field the
+ * result depends on. A stored cell counts only if its key is equal. */
+void experiment_cell_key(const recon_scene_t *scene, char *key, size_t key_size);
+
+/* Reads <dir>/cell.csv. True if it exists, parses and has this key. */
+bool experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell);
+
+/* Writes <dir>/cell.csv whole or not at all; -1 with errno on failure. */
+int experiment_cell_store(const char *dir, const char *key, const experiment_cell_t *cell);
+
+#endif
