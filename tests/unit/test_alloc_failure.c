@@ -531,7 +531,7 @@ static bool scenario_exr(void) {
   hetinv_image_t *img = NULL, *back = NULL;
   char path[1024];
   snprintf(path, sizeof path, "%s/image.exr", dir);
-  bool writing = false;
+  bool writing = false, reading = false;
   STEP_CONTEXT(ctx);
   STEP(hetinv_image_create(ctx, 5, 3, 3, &img));
   for (int c = 0; c < 3; ++c) {
@@ -548,11 +548,14 @@ static bool scenario_exr(void) {
   STEP(hetinv_image_write_exr(img, path));
   writing = false;
   back = img;
+  reading = true;
   STEP(hetinv_image_read_exr(ctx, path, &back));
+  reading = false;
   DONE;
 failed:
   if (!done && writing) CHECK(!exists(path));
-  if (!done && back == NULL && img != NULL) { /* the failed read's output; img intact */
+  if (reading) { /* the failed read's output is NULL; img is intact */
+    CHECK(back == NULL);
     const char *value = NULL;
     CHECK(hetinv_image_get_attribute_string(img, "hetinv:scene", &value) == HETINV_SUCCESS);
     CHECK(value != NULL && strcmp(value, "replaced") == 0);
