@@ -237,11 +237,12 @@ enum { SCENE_VALUES = 6 }; /* 2 beams x (2 reflection pixels + 1 transmission) *
 static const char *dir; /* the test's temporary directory */
 
 /* A medium: create, fill, set, commit, clone (into a variable holding the
- * original), a Gaussian-mixture volume. */
+ * original), a Gaussian-mixture volume and a smoke volume. */
 static bool scenario_medium(void) {
   bool done = false;
   hetinv_context_t *ctx = NULL;
-  hetinv_medium_t *m = NULL, *orig = NULL, *copy = NULL, *vol = NULL;
+  hetinv_medium_t *m = NULL, *orig = NULL, *copy = NULL, *vol = NULL, *smoke = NULL;
+  const hetinv_medium_t *filling = NULL; /* the medium of a volume generator that failed */
   STEP_CONTEXT(ctx);
   STEP(hetinv_medium_create(ctx, (double[]){0, 0, 0}, (double[]){1, 2, 3}, (int32_t[]){3, 2, 2}, &m));
   STEP(hetinv_medium_fill(m, 0.5, 2.0, 0.2));
@@ -255,7 +256,15 @@ static bool scenario_medium(void) {
   STEP(hetinv_medium_create(ctx, (double[]){0, 0, 0}, (double[]){1, 1, 1}, (int32_t[]){4, 4, 4}, &vol));
   hetinv_mixture_spec_t spec;
   hetinv_mixture_spec_default(&spec);
+  filling = vol;
   STEP(hetinv_volume_gaussian_mixture(vol, &spec));
+  filling = NULL;
+  STEP(hetinv_medium_create(ctx, (double[]){0, 0, 0}, (double[]){1, 1, 1}, (int32_t[]){3, 3, 3}, &smoke));
+  hetinv_smoke_spec_t smoke_spec;
+  hetinv_smoke_spec_default(&smoke_spec);
+  filling = smoke;
+  STEP(hetinv_volume_smoke(smoke, &smoke_spec));
+  filling = NULL;
   DONE;
 failed:
   if (!done && orig != NULL && copy == NULL) {
@@ -264,10 +273,11 @@ failed:
     CHECK(hetinv_medium_get_voxel(orig, 2, 1, 1, &sa, &ss, &g) == HETINV_SUCCESS);
     CHECK(sa == 0.7 && ss == 4.0 && g == -0.3);
   }
-  if (!done && vol != NULL) { /* a failed mixture changes nothing */
-    const double *ss = hetinv_medium_grid(vol, HETINV_PARAM_SIGMA_S);
-    for (size_t i = 0; i < hetinv_medium_voxel_count(vol); ++i) CHECK(ss[i] == 0.0);
+  if (filling != NULL) { /* a failed volume generator changes nothing */
+    const double *ss = hetinv_medium_grid(filling, HETINV_PARAM_SIGMA_S);
+    for (size_t i = 0; i < hetinv_medium_voxel_count(filling); ++i) CHECK(ss[i] == 0.0);
   }
+  hetinv_medium_destroy(&smoke);
   if (m != orig && m != copy) hetinv_medium_destroy(&m);
   hetinv_medium_destroy(&orig);
   hetinv_medium_destroy(&copy);
@@ -400,18 +410,38 @@ failed:
   return done;
 }
 
-/* A render of the tiny scene, with standard errors and ballistic values. */
+/* A render of the tiny scene, with standard errors and ballistic values;
+ * then a pathlength-resolved render of an area, a diffuse and a combination
+ * emitter. */
 static bool scenario_render(void) {
   bool done = false;
   hetinv_context_t *ctx = NULL;
   scene_t sc = {0};
   double values[SCENE_VALUES], errors[SCENE_VALUES], ballistic[SCENE_VALUES];
+  enum { TRANSIENT_VALUES = 3 * 2 * 4 }; /* 3 emitters x 2 pixels x 4 bins */
+  double tvalues[TRANSIENT_VALUES], terrors[TRANSIENT_VALUES];
+  hetinv_pathlength_t *bins = NULL;
+  hetinv_emitter_t *more[3] = {NULL, NULL, NULL};
+  hetinv_measurements_t *transient = NULL;
   STEP_CONTEXT(ctx);
   STEP(scene_build(ctx, &sc));
   STEP(hetinv_estimator_render(sc.est, sc.medium, sc.set, values, errors, ballistic, SCENE_VALUES));
   STEP(hetinv_estimator_render(sc.est, sc.medium, sc.set, values, NULL, NULL, SCENE_VALUES));
+  /* Pathlength-resolved rows of an area, a diffuse and a combination emitter. */
+  STEP(hetinv_pathlength_create_bins(ctx, HETINV_WINDOW_BOX, 4, (double[]){0.5, 1.5, 2.5, 3.5}, 1.0, &bins));
+  STEP(hetinv_emitter_create_area(sc.medium, HETINV_FACE_Z_MIN, (double[]){0, 0, 1}, (double[]){0.2, 0.2},
+                                  (double[]){0.8, 0.8}, 2, 2, NULL, &more[0]));
+  STEP(hetinv_emitter_create_diffuse(sc.medium, HETINV_FACE_X_MIN, (double[]){0.5, 0.5}, &more[1]));
+  STEP(hetinv_emitter_create_combination(sc.medium, 2, (double[]){0.3, 0.5, -1, 0.6, 0.4, -1},
+                                         (double[]){0, 0, 1, 0, 0, 1}, (double[]){1, 2}, &more[2]));
+  STEP(hetinv_measurements_create(ctx, &transient));
+  for (int k = 0; k < 3; ++k) STEP(hetinv_measurements_add(transient, more[k], sc.reflect, bins, NULL));
+  STEP(hetinv_estimator_render(sc.est, sc.medium, transient, tvalues, terrors, NULL, TRANSIENT_VALUES));
   DONE;
 failed:
+  hetinv_measurements_destroy(&transient);
+  for (int k = 0; k < 3; ++k) hetinv_emitter_destroy(&more[k]);
+  hetinv_pathlength_destroy(&bins);
   scene_release(&sc);
   hetinv_context_destroy(&ctx);
   return done;
