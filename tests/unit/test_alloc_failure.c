@@ -1,7 +1,8 @@
-/* Allocation failure, systematically: every scenario below (a medium, every
- * kind of emitter, sensor and pathlength function, a measurement set, a
- * render, gradients, an optimizer run that writes a checkpoint and a second
- * optimizer that resumes it, EXR, .vol and PNG files) is first run once
+/* Allocation failure, systematically: every scenario below (a medium and
+ * the volume generators, every kind of emitter, sensor and pathlength
+ * function, a measurement set, renders and gradients with one and two
+ * threads, an optimizer run that writes a checkpoint and a second optimizer
+ * that resumes it, layer-wise stages, EXR, .vol and PNG files) is first run once
  * through a counting allocator to learn its N allocations, then N more times
  * with allocation n failing, for every n in 1..N. Each time:
  *  - the call during which the allocation failed returns
@@ -10,8 +11,9 @@
  *  - the caller's objects are as they were: a create function called with an
  *    output variable that already held an object sets the variable to NULL
  *    (as documented) and leaves that object alive and usable; a failing call
- *    on an existing object (add a row, read into a medium, resume an
- *    optimizer) leaves it unchanged;
+ *    on an existing object (add a row, read into a medium, fill a volume,
+ *    add stages, resume an optimizer) leaves it unchanged; a failed
+ *    optimizer run, run again, ends bitwise as the run that never failed;
  *  - a failing writer leaves neither the file nor a temporary file behind;
  *  - once everything is destroyed, every block the hooks handed out has come
  *    back to them, and nothing else was freed through them.
@@ -137,11 +139,13 @@ static long allocations_at_end;
     } \
   } while (0)
 
+static int32_t threads = 1; /* of the scenarios' contexts */
+
 static hetinv_context_t *ctx_of_hooks(hetinv_result_t *r) {
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.alloc_fn = hook_alloc;
   init.free_fn = hook_free;
-  init.thread_count = 1;
+  init.thread_count = threads;
   init.seed = 11;
   hetinv_context_t *ctx = (hetinv_context_t *)&init; /* must become NULL on failure */
   *r = hetinv_context_create(&init, &ctx);
@@ -557,6 +561,10 @@ static bool scenario_optimizer(void) {
   STEP(hetinv_param_map_create_identity(sc.medium, HETINV_FREE(HETINV_PARAM_SIGMA_S), &maps[1]));
   STEP(hetinv_optimizer_create(ctx, sc.set, sc.medium, &first));
   STEP(configure(first, maps, checkpoint, &stop));
+  /* Created before the first run, so that fewer of the runs with a failure
+   * write the checkpoint (its fsync costs more than the rest). */
+  STEP(hetinv_optimizer_create(ctx, sc.set, sc.medium, &second));
+  STEP(configure(second, maps, NULL, NULL));
   failed_in = RUN_FIRST;
   STEP(hetinv_optimizer_run(first, sc.est, &why));
   failed_in = NOTHING;
@@ -565,8 +573,6 @@ static bool scenario_optimizer(void) {
   held = result;
   STEP(hetinv_optimizer_result(first, &held));
   hetinv_medium_destroy(&held);
-  STEP(hetinv_optimizer_create(ctx, sc.set, sc.medium, &second));
-  STEP(configure(second, maps, NULL, NULL));
   failed_in = RESUME;
   STEP(hetinv_optimizer_resume(second, checkpoint));
   failed_in = RUN_SECOND;
@@ -600,6 +606,55 @@ failed:
   hetinv_optimizer_destroy(&first);
   hetinv_param_map_destroy(&maps[0]);
   hetinv_param_map_destroy(&maps[1]);
+  scene_release(&sc);
+  hetinv_context_destroy(&ctx);
+  return done;
+}
+
+/* Layer-wise stages on a frontlit pathlength-resolved set (the schedule is
+ * all layers or none), a stage with frozen entries and a value mask, and a
+ * short run through the stage changes. */
+static bool scenario_layerwise(void) {
+  bool done = false;
+  hetinv_context_t *ctx = NULL;
+  scene_t sc = {0};
+  hetinv_pathlength_t *bins = NULL;
+  hetinv_measurements_t *set = NULL;
+  hetinv_param_map_t *map = NULL;
+  hetinv_optimizer_t *opt = NULL;
+  bool adding = false;
+  enum { BINS = 4, VALUES = 2 * 2 * BINS };
+  double values[VALUES];
+  for (int i = 0; i < VALUES; ++i) values[i] = 0.01 * (i + 1);
+  STEP_CONTEXT(ctx);
+  STEP(scene_build(ctx, &sc));
+  STEP(hetinv_estimator_set_param(sc.est, HETINV_ESTIMATOR_PHOTONS, 8));
+  STEP(hetinv_pathlength_create_bins(ctx, HETINV_WINDOW_BOX, BINS, (double[]){0.5, 1.5, 2.5, 3.5}, 1.0, &bins));
+  STEP(hetinv_measurements_create(ctx, &set));
+  for (int e = 0; e < 2; ++e) STEP(hetinv_measurements_add(set, sc.beams[e], sc.reflect, bins, NULL));
+  STEP(hetinv_measurements_set_values(set, values, NULL, VALUES));
+  STEP(hetinv_param_map_create_identity(sc.medium, HETINV_FREE(HETINV_PARAM_SIGMA_S), &map));
+  STEP(hetinv_optimizer_create(ctx, set, sc.medium, &opt));
+  uint8_t frozen[4] = {0, 1, 0, 0}, mask[VALUES] = {0};
+  for (int i = 0; i < VALUES; i += 2) mask[i] = 1;
+  hetinv_stage_t st = {sizeof st, map, 1, frozen, mask};
+  STEP(hetinv_optimizer_add_stage(opt, &st));
+  adding = true;
+  STEP(hetinv_optimizer_add_layerwise_stages(opt, map, 0.5, 2, 1));
+  adding = false;
+  STEP(hetinv_optimizer_run(opt, sc.est, NULL));
+  DONE;
+failed:
+  if (adding) { /* all layers or none: the schedule still has its one stage */
+    CHECK(hetinv_optimizer_run(opt, sc.est, NULL) == HETINV_SUCCESS);
+    size_t n = 0;
+    hetinv_optimizer_losses(opt, &n);
+    CHECK(n == 1);
+  }
+  hetinv_optimizer_destroy(&opt);
+  hetinv_param_map_destroy(&map);
+  hetinv_measurements_destroy(&set);
+  hetinv_pathlength_destroy(&bins);
   scene_release(&sc);
   hetinv_context_destroy(&ctx);
   return done;
@@ -795,6 +850,20 @@ static void an_optimizer_run_and_resume_fail_cleanly(void **state) {
   run_scenario("optimizer", scenario_optimizer);
 }
 
+static void layerwise_stages_fail_cleanly(void **state) {
+  (void)state;
+  run_scenario("layerwise", scenario_layerwise);
+}
+
+/* The per-thread buffers of the estimator's passes. */
+static void two_thread_passes_fail_cleanly(void **state) {
+  (void)state;
+  threads = 2;
+  run_scenario("render-2-threads", scenario_render);
+  run_scenario("gradient-2-threads", scenario_gradient);
+  threads = 1;
+}
+
 static void exr_io_fails_cleanly(void **state) {
   (void)state;
   run_scenario("exr", scenario_exr);
@@ -817,6 +886,8 @@ int main(void) {
       cmocka_unit_test(a_render_fails_cleanly),
       cmocka_unit_test(gradients_fail_cleanly),
       cmocka_unit_test(an_optimizer_run_and_resume_fail_cleanly),
+      cmocka_unit_test(layerwise_stages_fail_cleanly),
+      cmocka_unit_test(two_thread_passes_fail_cleanly),
       cmocka_unit_test(exr_io_fails_cleanly),
       cmocka_unit_test(vol_io_fails_cleanly),
       cmocka_unit_test(png_writes_fail_cleanly),
