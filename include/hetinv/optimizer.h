@@ -332,6 +332,9 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
  *         HETINV_ERROR_INVALID_STATE (no stage);
  *         errors of the estimator and of checkpoint writes.
+ *         After a failure (e.g. HETINV_ERROR_OUT_OF_MEMORY) the optimizer
+ *         holds the state of its last completed iteration, and calling it
+ *         again continues the run as if nothing had failed.
  */
 HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
                                                 hetinv_estimator_t *estimator,

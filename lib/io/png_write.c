@@ -40,6 +40,8 @@ typedef struct png_job {
   int32_t width, height, colormap;
   double lo, hi;
   uint8_t *row; /* width·3 bytes */
+  const hetinv_context_t *ctx;
+  bool out_of_memory; /* our allocator refused libpng a block: libpng's error is ours */
   char message[256];
 } png_job_t;
 
@@ -66,11 +68,19 @@ static void on_png_warning(png_structp png, png_const_charp message) {
   (void)png, (void)message; /* libpng would print it; nothing we write warrants one */
 }
 
-/* libpng allocates through the context's allocator. */
+/* libpng allocates through the context's allocator. A refusal is remembered,
+ * so that the error libpng raises for it is reported as
+ * HETINV_ERROR_OUT_OF_MEMORY, not as an I/O error. */
 static png_voidp png_alloc(png_structp png, png_alloc_size_t size) {
-  return hv_alloc(png_get_mem_ptr(png), size);
+  png_job_t *job = png_get_mem_ptr(png);
+  void *p = hv_alloc(job->ctx, size);
+  if (p == NULL) job->out_of_memory = true;
+  return p;
 }
-static void png_release(png_structp png, png_voidp ptr) { hv_free(png_get_mem_ptr(png), ptr); }
+static void png_release(png_structp png, png_voidp ptr) {
+  png_job_t *job = png_get_mem_ptr(png);
+  hv_free(job->ctx, ptr);
+}
 
 /* Encodes the image; false (with job->message) if libpng failed. */
 static bool encode(png_structp png, png_infop info, FILE *fp, png_job_t *job) {
@@ -126,7 +136,8 @@ HETINV_API hetinv_result_t hetinv_image_write_png(const hetinv_image_t *image, i
                    .height = image->height,
                    .colormap = colormap,
                    .lo = lo,
-                   .hi = hi};
+                   .hi = hi,
+                   .ctx = ctx};
   if (lo == hi) finite_range(job.values, image->pixel_count, &job.lo, &job.hi);
   job.row = hv_calloc(ctx, (size_t)image->width, 3);
   if (job.row == NULL) {
@@ -140,13 +151,14 @@ HETINV_API hetinv_result_t hetinv_image_write_png(const hetinv_image_t *image, i
     return r;
   }
   png_structp png = png_create_write_struct_2(PNG_LIBPNG_VER_STRING, &job, on_png_error,
-                                              on_png_warning, (png_voidp)(uintptr_t)ctx,
-                                              png_alloc, png_release);
+                                              on_png_warning, &job, png_alloc, png_release);
   png_infop info = png != NULL ? png_create_info_struct(png) : NULL;
   if (info == NULL) {
     r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot create the PNG writer for '%s'", path);
   } else if (!encode(png, info, file.fp, &job)) {
-    r = HV_FAIL(ctx, HETINV_ERROR_IO, "cannot write '%s': %s", path, job.message);
+    r = job.out_of_memory
+            ? HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot write '%s': libpng: %s", path, job.message)
+            : HV_FAIL(ctx, HETINV_ERROR_IO, "cannot write '%s': %s", path, job.message);
   }
   png_destroy_write_struct(png != NULL ? &png : NULL, info != NULL ? &info : NULL);
   hv_free(ctx, job.row);

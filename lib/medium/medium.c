@@ -106,7 +106,7 @@ HETINV_API hetinv_result_t hetinv_medium_clone(const hetinv_medium_t *src, hetin
   HV_CHECK_NULL(src ? src->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, src);
-  hetinv_medium_t *m;
+  hetinv_medium_t *m = NULL;
   hetinv_result_t r =
       allocate(src->ctx, __func__, src->box_min, src->box_max, src->dims, src->voxel_count, &m);
   if (r != HETINV_SUCCESS) return r;

@@ -251,22 +251,26 @@ void hv_optimizer_resolve_iterations(hetinv_optimizer_t *opt) {
 
 hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k, const char *func) {
   const hetinv_context_t *ctx = opt->ctx;
-  hv_optimizer_free_stage_arrays(opt);
-  opt->window = (int32_t)opt->param[HETINV_OPTIMIZER_AVERAGE_WINDOW];
-  opt->pi = hv_calloc(ctx, k, sizeof(double));
-  opt->acc1 = hv_calloc(ctx, k, sizeof(double));
-  opt->acc2 = hv_calloc(ctx, k, sizeof(double));
-  opt->scale = hv_calloc(ctx, k, sizeof(double));
-  opt->lo_k = hv_calloc(ctx, k, sizeof(double));
-  opt->hi_k = hv_calloc(ctx, k, sizeof(double));
-  opt->grad = hv_calloc(ctx, k, sizeof(double));
+  /* Allocated before the old state is released, so that a failure leaves
+   * the optimizer as it was (a failed stage change can then be retried). */
+  int32_t window = (int32_t)opt->param[HETINV_OPTIMIZER_AVERAGE_WINDOW];
+  enum { VECTORS = 7 };
+  double *v[VECTORS + 1];
+  bool ok = true;
+  for (int i = 0; i < VECTORS; ++i) {
+    v[i] = hv_calloc(ctx, k, sizeof(double));
+    ok = ok && v[i] != NULL;
+  }
   size_t ring_len;
-  opt->ring = hv_mul_size(k, (size_t)opt->window, &ring_len) ? hv_calloc(ctx, ring_len, sizeof(double)) : NULL;
-  if (!opt->pi || !opt->acc1 || !opt->acc2 || !opt->scale || !opt->lo_k || !opt->hi_k ||
-      !opt->grad || !opt->ring) {
-    hv_optimizer_free_stage_arrays(opt);
+  v[VECTORS] = hv_mul_size(k, (size_t)window, &ring_len) ? hv_calloc(ctx, ring_len, sizeof(double)) : NULL;
+  if (!ok || v[VECTORS] == NULL) {
+    for (int i = 0; i <= VECTORS; ++i) hv_free(ctx, v[i]);
     return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the state of %zu entries", k);
   }
+  hv_optimizer_free_stage_arrays(opt);
+  opt->window = window;
+  opt->pi = v[0], opt->acc1 = v[1], opt->acc2 = v[2], opt->scale = v[3];
+  opt->lo_k = v[4], opt->hi_k = v[5], opt->grad = v[6], opt->ring = v[VECTORS];
   opt->k = k;
   hv_optimizer_stage_bounds(opt);
   return HETINV_SUCCESS;

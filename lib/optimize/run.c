@@ -15,17 +15,17 @@ static double now_seconds(void) {
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static hetinv_result_t push_loss(hetinv_optimizer_t *opt, double loss, const char *func) {
-  if (opt->loss_count == opt->loss_capacity) {
-    size_t cap = opt->loss_capacity ? 2 * opt->loss_capacity : 256;
-    double *grown = hv_calloc(opt->ctx, cap, sizeof(double));
-    if (grown == NULL) return hv_fail(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot grow the loss history");
-    if (opt->loss_count) memcpy(grown, opt->losses, opt->loss_count * sizeof(double));
-    hv_free(opt->ctx, opt->losses);
-    opt->losses = grown;
-    opt->loss_capacity = cap;
-  }
-  opt->losses[opt->loss_count++] = loss;
+/* Room for one more loss, made before an iteration changes anything, so
+ * that an iteration either fails with nothing recorded or is recorded whole. */
+static hetinv_result_t reserve_loss(hetinv_optimizer_t *opt, const char *func) {
+  if (opt->loss_count < opt->loss_capacity) return HETINV_SUCCESS;
+  size_t cap = opt->loss_capacity ? 2 * opt->loss_capacity : 256;
+  double *grown = hv_calloc(opt->ctx, cap, sizeof(double));
+  if (grown == NULL) return hv_fail(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot grow the loss history");
+  if (opt->loss_count) memcpy(grown, opt->losses, opt->loss_count * sizeof(double));
+  hv_free(opt->ctx, opt->losses);
+  opt->losses = grown;
+  opt->loss_capacity = cap;
   return HETINV_SUCCESS;
 }
 
@@ -47,17 +47,33 @@ static bool stage_done(const hetinv_optimizer_t *opt) {
 }
 
 /* Ends the current stage: its averaged result becomes the base medium of
- * the next, which starts. */
+ * the next, which starts. Nothing changes until everything the next stage
+ * needs is allocated, so that after a failure the optimizer is where it
+ * was and the next run ends the stage again. */
 static hetinv_result_t next_stage(hetinv_optimizer_t *opt, const char *func) {
   double *avg = hv_calloc(opt->ctx, opt->k, sizeof(double));
   if (avg == NULL) return hv_fail(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate %zu entries", opt->k);
   hv_optimizer_average(opt, avg);
-  hetinv_result_t r = hetinv_param_map_apply(opt->stages[opt->stage].map, avg, opt->k, opt->base);
+  hetinv_medium_t *base = NULL, *old = opt->base;
+  hetinv_result_t r = hetinv_medium_clone(old, &base);
+  if (r == HETINV_SUCCESS) r = hetinv_param_map_apply(opt->stages[opt->stage].map, avg, opt->k, base);
   hv_free(opt->ctx, avg);
-  if (r != HETINV_SUCCESS) return r;
-  ++opt->stage;
+  if (r == HETINV_SUCCESS) {
+    opt->base = base;
+    ++opt->stage;
+    r = hv_optimizer_begin_stage(opt, func);
+    if (r != HETINV_SUCCESS) {
+      --opt->stage;
+      opt->base = old;
+    }
+  }
+  if (r != HETINV_SUCCESS) {
+    hetinv_medium_destroy(&base);
+    return r;
+  }
+  hetinv_medium_destroy(&old);
   opt->stage_iteration = 0;
-  return hv_optimizer_begin_stage(opt, func);
+  return HETINV_SUCCESS;
 }
 
 /* One iteration on the current stage. */
@@ -177,13 +193,14 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
       break;
     }
     double t0 = now_seconds(), loss = 0.0, step = 0.0;
-    r = iterate(opt, estimator, picked, scratch, &loss, &step, __func__);
+    r = reserve_loss(opt, __func__);
+    if (r == HETINV_SUCCESS) r = iterate(opt, estimator, picked, scratch, &loss, &step, __func__);
     if (r != HETINV_SUCCESS) break;
     opt->elapsed += now_seconds() - t0;
     ++opt->stage_iteration;
     ++opt->iteration;
-    r = push_loss(opt, loss, __func__);
-    if (r == HETINV_SUCCESS && opt->checkpoint_path && opt->iteration % interval == 0) {
+    opt->losses[opt->loss_count++] = loss;
+    if (opt->checkpoint_path && opt->iteration % interval == 0) {
       r = hv_checkpoint_write(opt, opt->checkpoint_path, __func__);
     }
     if (r == HETINV_SUCCESS && opt->progress) {

@@ -90,7 +90,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_ideal(const hetinv_medium_t *me
   HV_CHECK_NULL(NULL, medium);
   HV_CHECK_NULL(medium->ctx, origin);
   HV_CHECK_NULL(medium->ctx, direction);
-  hetinv_emitter_t *e;
+  hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
   hetinv_result_t r = new_emitter(medium, __func__, HV_EMITTER_IDEAL, &e);
   if (r == HETINV_SUCCESS) r = alloc_beams(e, __func__, 1);
   if (r == HETINV_SUCCESS) r = place_beam(e, __func__, -1, origin, direction, e->points, e->faces, e->directions);
@@ -140,7 +140,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_combination(const hetinv_medium
   if (count <= 0) {
     return HV_FAIL(medium->ctx, HETINV_ERROR_INVALID_ARGUMENT, "count is %d; it must be > 0", (int)count);
   }
-  hetinv_emitter_t *e;
+  hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
   hetinv_result_t r = new_emitter(medium, __func__, HV_EMITTER_COMBINATION, &e);
   if (r == HETINV_SUCCESS) r = alloc_beams(e, __func__, count);
   for (int32_t i = 0; r == HETINV_SUCCESS && i < count; ++i) {
@@ -195,7 +195,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_area(
                    "the pattern is %d x %d; each size must be > 0 and the product < 2^31",
                    (int)pattern_width, (int)pattern_height);
   }
-  hetinv_emitter_t *e;
+  hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
   r = new_emitter(medium, __func__, HV_EMITTER_AREA, &e);
   if (r != HETINV_SUCCESS) return r;
   e->face = face;
@@ -241,7 +241,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_diffuse(const hetinv_medium_t *
   HV_CHECK_NULL(medium->ctx, point);
   hetinv_result_t r = hv_check_face(medium->ctx, __func__, face);
   if (r != HETINV_SUCCESS) return r;
-  hetinv_emitter_t *e;
+  hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
   r = new_emitter(medium, __func__, HV_EMITTER_DIFFUSE, &e);
   if (r != HETINV_SUCCESS) return r;
   e->face = face;

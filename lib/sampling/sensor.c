@@ -87,7 +87,7 @@ HETINV_API hetinv_result_t hetinv_sensor_create_orthographic(
   if ((int64_t)width * height > INT32_MAX) {
     return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%d x %d pixels exceed 2^31 - 1", (int)width, (int)height);
   }
-  hetinv_sensor_t *s;
+  hetinv_sensor_t *s = NULL;
   hetinv_result_t r = new_sensor(medium, __func__, HV_SENSOR_ORTHOGRAPHIC, face, &s);
   if (r != HETINV_SUCCESS) return r;
   memcpy(s->origin, origin, sizeof s->origin);
@@ -117,7 +117,7 @@ HETINV_API hetinv_result_t hetinv_sensor_create_hemispherical(const hetinv_mediu
                    "rect_min is %s and rect_max is %s; give both or neither (whole face)",
                    rect_min ? "set" : "NULL", rect_max ? "set" : "NULL");
   }
-  hetinv_sensor_t *s;
+  hetinv_sensor_t *s = NULL;
   hetinv_result_t r = new_sensor(medium, __func__, HV_SENSOR_HEMISPHERICAL, face, &s);
   if (r != HETINV_SUCCESS) return r;
   int ax[2];
