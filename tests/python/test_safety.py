@@ -284,6 +284,7 @@ class Ranges(ChildTest):
                 lambda: hetinv.SmokeSpec(octaves=-big),
                 lambda: hetinv.vol_write(ctx, "x.vol", [1.0], (big, 1, 1)),
                 lambda: hetinv.vol_write(ctx, "x.vol", [1.0], (1, 1, 1), channels=big),
+                lambda: hetinv.result_name(big),
             ]
             for i, call in enumerate(calls):
                 print(i, end=" ")
@@ -302,6 +303,23 @@ class Ranges(ChildTest):
             expect(AttributeError, setattr, hetinv.NoiseModel(), "size", 10**6)
             expect(TypeError, hetinv.NoiseModel, read_noise="loud")
         """)
+
+
+class Paths(ChildTest):
+    """A NUL byte would end the C string early: another file would be written."""
+
+    def test_nul_in_a_path_is_refused(self):
+        self.assertChildOk("""
+            import os, tempfile
+            d = tempfile.mkdtemp()
+            target = os.path.join(d, "a.vol")
+            expect(ValueError, m.write_vol, "sigma_s", target + "\\0.txt")
+            expect(ValueError, hetinv.vol_write, ctx, target + "\\0.txt", [1.0], (1, 1, 1))
+            expect(ValueError, opt.save, target + "\\0.txt")
+            expect(ValueError, opt.set_checkpoint, target + "\\0.txt")
+            assert not os.path.exists(target), "wrote " + target
+            os.rmdir(d)
+        """, expect_in=["embedded null byte"])
 
 
 if __name__ == "__main__":

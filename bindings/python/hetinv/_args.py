@@ -42,3 +42,15 @@ def number(value, name):
         return float(value)
     except OverflowError:
         raise OverflowError("%s: %r is too large for a double" % (name, value)) from None
+
+
+def path(value, name="path"):
+    """A file path as bytes for a C string. A NUL byte would end the C
+    string early (writing another file than the one named), so it is a
+    ValueError, as in open()."""
+    import os
+
+    b = os.fsencode(value)
+    if b"\0" in b:
+        raise ValueError("%s: embedded null byte in %r" % (name, value))
+    return b

@@ -1,9 +1,8 @@
 """The voxel medium and Mitsuba .vol files."""
 import ctypes
-import os
 
 from . import _arrays
-from ._args import integer, number
+from ._args import integer, number, path as _path
 from ._errors import OutOfRangeError, check
 from ._handle import Handle, handle_arg
 from ._lib import lib
@@ -18,10 +17,6 @@ def param_id(param):
 
 def param_name(param):
     return lib.param_name(param_id(param)).decode()
-
-
-def _path(path):
-    return os.fsencode(path)
 
 
 class Medium(Handle):

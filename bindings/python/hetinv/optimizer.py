@@ -1,10 +1,9 @@
 """Appearance matching by stochastic gradient descent (optimizer.h)."""
 import ctypes
-import os
 from collections import namedtuple
 
 from . import _arrays
-from ._args import integer, number
+from ._args import integer, number, path as _path
 from ._errors import HetinvError, check
 from ._handle import Handle, handle_arg
 from ._lib import PROGRESS_FN, lib
@@ -158,16 +157,16 @@ class Optimizer(Handle):
 
     def set_checkpoint(self, path):
         """Write checkpoints to `path` during runs (None: stop)."""
-        check(lib.optimizer_set_checkpoint(self._ptr, None if path is None else os.fsencode(path)))
+        check(lib.optimizer_set_checkpoint(self._ptr, None if path is None else _path(path)))
         return self
 
     def save(self, path):
-        check(lib.optimizer_save(self._ptr, os.fsencode(path)))
+        check(lib.optimizer_save(self._ptr, _path(path)))
 
     def resume(self, path):
         """Restore a checkpoint written by an identically configured optimizer."""
         self._not_running("resume")
-        check(lib.optimizer_resume(self._ptr, os.fsencode(path)))
+        check(lib.optimizer_resume(self._ptr, _path(path)))
         return self
 
     def run(self, estimator):
