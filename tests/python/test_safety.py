@@ -141,6 +141,36 @@ class DestructionOrder(ChildTest):
             assert opt.closed and ms.closed and e.closed
         """)
 
+    def test_closing_from_another_thread_during_a_render_is_refused(self):
+        # ctypes releases the GIL during the render: another thread can call close().
+        self.assertChildOk("""
+            import threading, time
+            big = hetinv.Estimator(ctx, photons=400000)  # about 0.3 s
+            started, result = threading.Event(), []
+            def work():
+                started.set()
+                try:
+                    result.append(len(big.render(m, ms).values))
+                except ValueError as x:  # the close won the race: a Python error
+                    result.append(str(x))
+            t = threading.Thread(target=work)
+            t.start()
+            started.wait()
+            time.sleep(0.02)
+            refused = 0
+            while t.is_alive():
+                try:
+                    ctx.close()
+                except RuntimeError:
+                    refused += 1
+                time.sleep(0.002)
+            t.join()
+            print("refused", refused, "result", result)
+            assert result == [1] if refused else "closed" in result[0], result
+            ctx.close()
+            assert m.closed and big.closed
+        """, expect_in=["refused"])
+
     def test_growing_a_set_an_optimizer_uses_is_refused(self):
         # The optimizer's stage masks are value_count long; a longer set would be read past them.
         self.assertChildOk("""

@@ -18,9 +18,12 @@ frees children first anyway (a child's owner holds its parents' owners).
 
 close() destroys the object now, and first everything that depends on it
 (found through weak references): closing a context closes everything made
-from it, closing an emitter the sets that use it. While an optimizer runs
-(and may call back into Python), close() of anything it uses is refused.
+from it, closing an emitter the sets that use it. While a long C call runs
+(an optimizer run, whose progress callback may call back into Python, or a
+render, while another thread may call close()), its objects are pinned and
+closing any of them, or anything they depend on, is refused.
 """
+import contextlib
 import ctypes
 import itertools
 import threading
@@ -46,7 +49,7 @@ class _Owner:
         self.children = weakref.WeakValueDictionary()  # for close(): key -> child owner
         self.live = 0              # children whose C object is not destroyed yet
         self.pending = False       # closed or finalized while children were alive
-        self.busy = 0              # > 0 while a C call that calls back into Python uses it
+        self.busy = 0              # > 0 while a long C call uses it (see pinned())
         self.key = next(_keys)
         for p in parents:
             self.add_parent(p)
@@ -61,7 +64,8 @@ class _Owner:
 
     def check_closable(self, what):
         if self.busy:
-            raise RuntimeError("cannot close %s: a running optimizer uses it" % what)
+            raise RuntimeError("cannot close %s: a running call (an optimizer run or a render) "
+                               "uses it" % what)
         for child in list(self.children.values()):
             child.check_closable(what)
 
@@ -92,6 +96,24 @@ class _Owner:
                 self._destroy_if_free()
         except Exception:  # interpreter shutdown: nothing sensible to do
             pass
+
+
+@contextlib.contextmanager
+def pinned(*objects):
+    """Refuse close() of `objects` (and of what they depend on) during the
+    block: the C call in it uses their handles."""
+    owners = [o._owner for o in objects]
+    with _lock:
+        for o in objects:
+            o._ptr  # closed: ValueError
+        for o in owners:
+            o.busy += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            for o in owners:
+                o.busy -= 1
 
 
 def handle_arg(obj, cls, name):
@@ -155,8 +177,9 @@ class Handle:
         o = self._owner
         if o is None or o.pending or not o.h:
             return
-        o.check_closable("this %s" % type(self).__name__)
-        o.close()
+        with _lock:  # no pinned() in between
+            o.check_closable("this %s" % type(self).__name__)
+            o.close()
 
     def __enter__(self):
         return self

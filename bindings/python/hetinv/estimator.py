@@ -5,7 +5,7 @@ from collections import namedtuple
 from . import _arrays
 from ._args import number
 from ._errors import check
-from ._handle import Handle, handle_arg
+from ._handle import Handle, handle_arg, pinned
 from ._lib import lib
 from ._names import ESTIMATOR_PARAMS, lookup
 from ._structs import RenderStats
@@ -65,7 +65,8 @@ class Estimator(Handle):
         values, pv = _arrays.empty(n)
         errors, pe = _arrays.empty(n)
         ballistic, pb = _arrays.empty(n)
-        check(lib.estimator_render(self._ptr, mp, sp, pv, pe, pb, n))
+        with pinned(self, medium, measurements):
+            check(lib.estimator_render(self._ptr, mp, sp, pv, pe, pb, n))
         return Render(values, errors, ballistic)
 
     def gradient(self, medium, measurements, cotangent, param_map):
@@ -76,7 +77,8 @@ class Estimator(Handle):
         k = param_map.size
         grad, pg = _arrays.empty(k)
         errors, pe = _arrays.empty(k)
-        check(lib.estimator_gradient(self._ptr, mp, sp, c.ptr, c.count, pm, pg, pe, k))
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_gradient(self._ptr, mp, sp, c.ptr, c.count, pm, pg, pe, k))
         return Gradient(grad, errors)
 
     def loss_gradient(self, medium, measurements, param_map):
@@ -88,7 +90,8 @@ class Estimator(Handle):
         loss = ctypes.c_double()
         rendered, pr = _arrays.empty(n)  # value_count values: the C function is not told n
         grad, pg = _arrays.empty(k)
-        check(lib.estimator_loss_gradient(self._ptr, mp, sp, pm, ctypes.byref(loss), pr, pg, k))
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_loss_gradient(self._ptr, mp, sp, pm, ctypes.byref(loss), pr, pg, k))
         return LossGradient(loss.value, grad, rendered)
 
     def stats(self):

@@ -5,7 +5,7 @@ from collections import namedtuple
 from . import _arrays
 from ._args import integer, number, path as _path
 from ._errors import HetinvError, check
-from ._handle import Handle, handle_arg
+from ._handle import Handle, handle_arg, pinned
 from ._lib import PROGRESS_FN, lib
 from ._names import METHODS, OPTIMIZER_PARAMS, STOP_REASONS, STOP_REASONS_INV, lookup  # noqa: F401
 from .context import Context
@@ -179,15 +179,11 @@ class Optimizer(Handle):
         box = self._callback_box
         box[0] = None
         running_callback = self._callback  # alive even if the callback replaces itself
-        pinned = (self._owner, estimator._owner)
         self._running = True
-        for o in pinned:
-            o.busy += 1
         try:
-            rc = lib.optimizer_run(me, ep, ctypes.byref(reason))
+            with pinned(self, estimator):
+                rc = lib.optimizer_run(me, ep, ctypes.byref(reason))
         finally:
-            for o in pinned:
-                o.busy -= 1
             self._running = False
             del running_callback
         err, box[0] = box[0], None
