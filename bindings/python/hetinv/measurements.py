@@ -6,7 +6,7 @@ import weakref
 from . import _arrays
 from ._args import integer
 from ._errors import check
-from ._handle import Handle, handle_arg
+from ._handle import Handle, handle_arg, _lock as _handle_lock
 from ._lib import lib
 
 
@@ -47,7 +47,10 @@ class Measurements(Handle):
                 pathlength = self._steady = Pathlength.steady(self.context)
             pp = pathlength._ptr
         row = ctypes.c_int32()
-        check(lib.measurements_add(me, ep, sp, pp, ctypes.byref(row)))
+        with _handle_lock:  # adding reallocates the rows: not while a render reads them
+            if self._owner.busy:
+                raise RuntimeError("cannot add a row to a measurement set a running render uses")
+            check(lib.measurements_add(me, ep, sp, pp, ctypes.byref(row)))
         self._borrow(emitter, sensor, pathlength)
         return row.value
 
