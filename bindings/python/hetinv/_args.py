@@ -30,7 +30,8 @@ def integer(value, name, ctype="int32"):
         raise TypeError("%s: expected an integer, got %s" % (name, type(value).__name__)) from None
     lo, hi = _RANGES[ctype]
     if not lo <= v <= hi:
-        raise OverflowError("%s: %d is outside the range of %s (%d to %d)" % (name, v, ctype, lo, hi))
+        raise OverflowError("%s: %d is outside the range of %s (%d to %d)"
+                            % (name, v, ctype, lo, hi))
     return v
 
 

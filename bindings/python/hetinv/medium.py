@@ -150,7 +150,8 @@ def _spec(spec, fields, cls, name="spec"):
     if spec is None:
         return cls(**fields)
     if not isinstance(spec, cls):
-        raise TypeError("%s: expected hetinv.%s, got %s" % (name, cls.__name__, type(spec).__name__))
+        raise TypeError("%s: expected hetinv.%s, got %s"
+                        % (name, cls.__name__, type(spec).__name__))
     if fields:
         raise TypeError("give either spec or its fields as keywords, not both")
     return spec

@@ -99,8 +99,8 @@ class Emitter(Handle):
         o = _arrays.to_c(_flat(origins), "d", 3 * w.count, "origins")
         d = _arrays.to_c(_flat(directions), "d", 3 * w.count, "directions")
         h = ctypes.c_void_p()
-        check(lib.emitter_create_combination(mp, integer(w.count, "len(weights)"), o.ptr, d.ptr, w.ptr,
-                                             ctypes.byref(h)))
+        check(lib.emitter_create_combination(mp, integer(w.count, "len(weights)"), o.ptr, d.ptr,
+                                             w.ptr, ctypes.byref(h)))
         return cls._made(h, medium)
 
 
