@@ -59,4 +59,6 @@ def build_has_mpi():
 
 def result_name(code):
     """Static name of a result code, e.g. "HETINV_ERROR_INVALID_ARGUMENT"."""
-    return _clib.result_name(code).decode()
+    from ._args import integer
+
+    return _clib.result_name(integer(code, "code")).decode()

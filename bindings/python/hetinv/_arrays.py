@@ -51,7 +51,9 @@ class CArray:
 
 def to_c(values, typecode="d", count=None, name="values"):
     """C array of `typecode` items from `values` (None gives a NULL pointer).
-    `count`, when given, is the number of items required."""
+    `count`, when given, is the number of items required: give it whenever
+    the C function reads a fixed number of items without being told how
+    many (a ValueError naming `name` otherwise)."""
     ctype = _CTYPE[typecode]
     if values is None:
         return CArray(None, 0, None)
@@ -105,8 +107,11 @@ def fixed(values, n, typecode, name):
     """A ctypes array of exactly n items (a vector argument such as an origin)."""
     if values is None:
         return None
+    from ._args import integer, number
+
     vals = list(values.tolist() if hasattr(values, "tolist") else values)
     if len(vals) != n:
         raise ValueError("%s: expected %d values, got %d" % (name, n, len(vals)))
-    ctype = ctypes.c_int32 if typecode == "i" else _CTYPE[typecode]
-    return (ctype * n)(*vals)
+    if typecode == "i":  # ctypes would wrap an int32 that does not fit
+        return (ctypes.c_int32 * n)(*[integer(v, "%s[%d]" % (name, i)) for i, v in enumerate(vals)])
+    return (_CTYPE[typecode] * n)(*[number(v, "%s[%d]" % (name, i)) for i, v in enumerate(vals)])

@@ -1,4 +1,5 @@
 """Enum values of the C API, and the names Python callers may use instead."""
+from ._args import integer
 
 PARAM_SIGMA_A, PARAM_SIGMA_S, PARAM_G = 0, 1, 2
 PARAMS = {"sigma_a": 0, "sigma_s": 1, "g": 2}
@@ -29,25 +30,29 @@ STOP_REASONS_INV = {v: k for k, v in STOP_REASONS.items()}
 
 
 def lookup(value, table, what):
-    """An enum value from an int or one of `table`'s names. Unknown ints are
-    passed through, so the library reports them in its own words."""
+    """An enum value from an int or one of `table`'s names. Unknown ints
+    that fit an int32 are passed through, so the library reports them in its
+    own words; others are an OverflowError (ctypes would wrap them)."""
     if isinstance(value, str):
         try:
             return table[value.lower()]
         except KeyError:
             raise ValueError("unknown %s %r; expected one of %s"
                              % (what, value, ", ".join(sorted(table)))) from None
-    return int(value)
+    return integer(value, what, "int32")
 
 
 def free_mask(free):
     """A HETINV_FREE() mask from an int, a parameter name, or an iterable of
     names / parameter ids."""
-    if isinstance(free, int):
-        return free
+    if not isinstance(free, str) and not hasattr(free, "__iter__"):
+        return integer(free, "free", "uint32")
     if isinstance(free, str):
         free = [free]
     mask = 0
     for p in free:
-        mask |= 1 << lookup(p, PARAMS, "parameter")
+        bit = lookup(p, PARAMS, "parameter")
+        if not 0 <= bit < 32:
+            raise OverflowError("free: parameter %d does not fit a 32-bit mask" % bit)
+        mask |= 1 << bit
     return mask

@@ -12,6 +12,20 @@ import ctypes
 _d3 = ctypes.c_double * 3
 _d6 = ctypes.c_double * 6
 
+# ctypes wraps an integer that does not fit a field; these are checked first.
+_INT_FIELDS = {ctypes.c_int32: "int32", ctypes.c_uint32: "uint32", ctypes.c_uint64: "uint64",
+               ctypes.c_size_t: "size_t"}
+
+
+def _checked(ctype, value, name):
+    from ._args import integer, number  # late: _args is tiny, but keep import order simple
+
+    if ctype in _INT_FIELDS:
+        return integer(value, name, _INT_FIELDS[ctype])
+    if ctype is ctypes.c_double:
+        return number(value, name)
+    return value
+
 
 class _Sized(ctypes.Structure):
     """A struct whose first member is its own size."""
@@ -24,21 +38,27 @@ class _Sized(ctypes.Structure):
             from ._lib import lib  # late: _lib imports this module
 
             getattr(lib, self._default_fn[len("hetinv_"):])(ctypes.byref(self))
-        self.size = ctypes.sizeof(self)
+        super().__setattr__("size", ctypes.sizeof(self))
         for name, value in fields.items():
             setattr(self, name, value)
 
     def __setattr__(self, name, value):
         if not name.startswith("_") and not hasattr(type(self), name):
             raise AttributeError("%s has no field %r" % (type(self).__name__, name))
-        current = getattr(self, name, None) if not name.startswith("_") else None
-        if isinstance(current, ctypes.Array):
+        if name == "size":  # the library reads as many bytes as it says
+            raise AttributeError("%s.size is set by the binding" % type(self).__name__)
+        ctype = dict(self._fields_).get(name)
+        label = "%s.%s" % (type(self).__name__, name)
+        if ctype is not None and issubclass(ctype, ctypes.Array):
+            current = getattr(self, name)
             value = list(value)
             if len(value) != len(current):
-                raise ValueError("%s.%s takes %d values, not %d"
-                                 % (type(self).__name__, name, len(current), len(value)))
-            current[:] = value
+                raise ValueError("%s takes %d values, not %d" % (label, len(current), len(value)))
+            current[:] = [_checked(ctype._type_, v, "%s[%d]" % (label, i))
+                          for i, v in enumerate(value)]
             return
+        if ctype is not None:
+            value = _checked(ctype, value, label)
         super().__setattr__(name, value)
 
     def as_dict(self):

@@ -5,6 +5,7 @@ from collections import namedtuple
 
 from . import _arrays
 from ._errors import check
+from ._handle import handle_arg
 from ._lib import lib
 from ._structs import NoiseModel
 
@@ -16,11 +17,15 @@ def apply_noise(ctx, clean, model=None, **fields):
     noise model: Noisy(values, std_errors, exposure). model: a NoiseModel,
     or its fields as keywords over the library defaults (e.g. seed=3,
     read_noise=2.0)."""
-    model = model if model is not None else NoiseModel(**fields)
+    from .context import Context
+    from .medium import _spec
+
+    cp = handle_arg(ctx, Context, "ctx")
+    model = _spec(model, fields, NoiseModel, "model")
     c = _arrays.to_c(clean, "d", name="clean")
     noisy, pn = _arrays.empty(c.count)
     errors, pe = _arrays.empty(c.count)
     exposure = ctypes.c_double()
-    check(lib.noise_apply(ctx._ptr, ctypes.byref(model), c.ptr, pn, pe, c.count,
+    check(lib.noise_apply(cp, ctypes.byref(model), c.ptr, pn, pe, c.count,
                           ctypes.byref(exposure)))
     return Noisy(noisy, errors, exposure.value)

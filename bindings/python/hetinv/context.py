@@ -1,6 +1,7 @@
 """The context: base seed, thread count, error messages."""
 import ctypes
 
+from ._args import integer
 from ._errors import check
 from ._handle import Handle
 from ._lib import lib
@@ -18,7 +19,8 @@ class Context(Handle):
     _destroy_name = "context_destroy"
 
     def __init__(self, seed=0, threads=0):
-        init = ContextInit(seed=seed, thread_count=threads)
+        init = ContextInit(seed=integer(seed, "seed", "uint64"),
+                           thread_count=integer(threads, "threads"))
         h = ctypes.c_void_p()
         check(lib.context_create(ctypes.byref(init), ctypes.byref(h)))
         super().__init__(h)

@@ -3,8 +3,9 @@ import ctypes
 from collections import namedtuple
 
 from . import _arrays
+from ._args import number
 from ._errors import check
-from ._handle import Handle
+from ._handle import Handle, handle_arg, pinned
 from ._lib import lib
 from ._names import ESTIMATOR_PARAMS, lookup
 from ._structs import RenderStats
@@ -35,8 +36,11 @@ class Estimator(Handle):
     param_bounds = staticmethod(estimator_param_bounds)
 
     def __init__(self, ctx, **params):
+        from .context import Context
+
+        c = handle_arg(ctx, Context, "ctx")
         h = ctypes.c_void_p()
-        check(lib.estimator_create(ctx._ptr, ctypes.byref(h)))
+        check(lib.estimator_create(c, ctypes.byref(h)))
         super().__init__(h, [ctx])
         self.context = ctx
         for name, value in params.items():
@@ -44,7 +48,8 @@ class Estimator(Handle):
 
     def set_param(self, param, value):
         check(lib.estimator_set_param(self._ptr, lookup(param, ESTIMATOR_PARAMS,
-                                                        "estimator parameter"), value))
+                                                        "estimator parameter"),
+                                      number(value, "value")))
         return self
 
     def get_param(self, param):
@@ -55,32 +60,38 @@ class Estimator(Handle):
 
     def render(self, medium, measurements):
         """Render every value of the set: Render(values, std_errors, ballistic)."""
+        mp, sp = _inputs(medium, measurements)
         n = measurements.value_count
         values, pv = _arrays.empty(n)
         errors, pe = _arrays.empty(n)
         ballistic, pb = _arrays.empty(n)
-        check(lib.estimator_render(self._ptr, medium._ptr, measurements._ptr, pv, pe, pb, n))
+        with pinned(self, medium, measurements):
+            check(lib.estimator_render(self._ptr, mp, sp, pv, pe, pb, n))
         return Render(values, errors, ballistic)
 
     def gradient(self, medium, measurements, cotangent, param_map):
         """Σ_n cotangent[n]·∂I_n/∂π: Gradient(grad, std_errors)."""
+        mp, sp = _inputs(medium, measurements)
+        pm = _map(param_map)
         c = _arrays.to_c(cotangent, "d", measurements.value_count, "cotangent")
         k = param_map.size
         grad, pg = _arrays.empty(k)
         errors, pe = _arrays.empty(k)
-        check(lib.estimator_gradient(self._ptr, medium._ptr, measurements._ptr, c.ptr, c.count,
-                                     param_map._ptr, pg, pe, k))
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_gradient(self._ptr, mp, sp, c.ptr, c.count, pm, pg, pe, k))
         return Gradient(grad, errors)
 
     def loss_gradient(self, medium, measurements, param_map):
         """The loss of Eq. (9) against the set's measured values, its
         gradient with respect to π, and the rendered values."""
+        mp, sp = _inputs(medium, measurements)
+        pm = _map(param_map)
         k, n = param_map.size, measurements.value_count
         loss = ctypes.c_double()
-        rendered, pr = _arrays.empty(n)
+        rendered, pr = _arrays.empty(n)  # value_count values: the C function is not told n
         grad, pg = _arrays.empty(k)
-        check(lib.estimator_loss_gradient(self._ptr, medium._ptr, measurements._ptr,
-                                          param_map._ptr, ctypes.byref(loss), pr, pg, k))
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_loss_gradient(self._ptr, mp, sp, pm, ctypes.byref(loss), pr, pg, k))
         return LossGradient(loss.value, grad, rendered)
 
     def stats(self):
@@ -89,3 +100,17 @@ class Estimator(Handle):
         s = RenderStats()
         check(lib.estimator_get_stats(self._ptr, ctypes.byref(s)))
         return s
+
+
+def _inputs(medium, measurements):
+    from .measurements import Measurements
+    from .medium import Medium
+
+    return handle_arg(medium, Medium, "medium"), handle_arg(measurements, Measurements,
+                                                            "measurements")
+
+
+def _map(param_map):
+    from .param import ParamMap
+
+    return handle_arg(param_map, ParamMap, "param_map")

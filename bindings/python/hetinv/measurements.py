@@ -1,38 +1,56 @@
 """Measurement sets: rows of (emitter, sensor, pathlength), their measured
 values, weights and mask (measurement.h)."""
 import ctypes
+import weakref
 
 from . import _arrays
+from ._args import integer
 from ._errors import check
-from ._handle import Handle
+from ._handle import Handle, handle_arg, _lock as _handle_lock
 from ._lib import lib
 
 
 class Measurements(Handle):
     """hetinv_measurements_t. The C set borrows its rows' emitters, sensors
     and pathlengths: this object keeps them alive, and closing one of them
-    closes the set first."""
+    closes the set first. A set an optimizer uses cannot grow (the
+    optimizer's stage masks have one byte per value it had)."""
 
     _destroy_name = "measurements_destroy"
 
     def __init__(self, ctx):
+        from .context import Context
+
+        c = handle_arg(ctx, Context, "ctx")
         h = ctypes.c_void_p()
-        check(lib.measurements_create(ctx._ptr, ctypes.byref(h)))
+        check(lib.measurements_create(c, ctypes.byref(h)))
         super().__init__(h, [ctx])
         self.context = ctx
+        self._optimizers = weakref.WeakSet()  # the optimizers made for this set
 
     def add(self, emitter, sensor, pathlength=None):
         """Append a row; returns its index. pathlength None: a steady-state
         window made for this set."""
-        if pathlength is None:
-            from .sampling import Pathlength
+        from .sampling import Emitter, Pathlength, Sensor
 
+        me = self._ptr
+        ep = handle_arg(emitter, Emitter, "emitter")
+        sp = handle_arg(sensor, Sensor, "sensor")
+        if pathlength is not None:
+            pp = handle_arg(pathlength, Pathlength, "pathlength")
+        if any(not o.closed for o in self._optimizers):
+            raise RuntimeError("cannot add a row to a measurement set an optimizer uses "
+                               "(close the optimizer first)")
+        if pathlength is None:
             pathlength = self.__dict__.get("_steady")
             if pathlength is None or pathlength.closed:
                 pathlength = self._steady = Pathlength.steady(self.context)
+            pp = pathlength._ptr
         row = ctypes.c_int32()
-        check(lib.measurements_add(self._ptr, emitter._ptr, sensor._ptr, pathlength._ptr,
-                                   ctypes.byref(row)))
+        with _handle_lock:  # adding reallocates the rows: not while a render reads them
+            if self._owner.busy:
+                raise RuntimeError("cannot add a row to a measurement set a running render uses")
+            check(lib.measurements_add(me, ep, sp, pp, ctypes.byref(row)))
         self._borrow(emitter, sensor, pathlength)
         return row.value
 
@@ -50,7 +68,8 @@ class Measurements(Handle):
     def layout(self, row):
         """(offset, pixels, bins) of a row: value (pixel p, bin b) is at offset + b·pixels + p."""
         off, px, bins = ctypes.c_size_t(), ctypes.c_int32(), ctypes.c_int32()
-        check(lib.measurements_row_layout(self._ptr, row, ctypes.byref(off), ctypes.byref(px),
+        check(lib.measurements_row_layout(self._ptr, integer(row, "row"), ctypes.byref(off),
+                                          ctypes.byref(px),
                                           ctypes.byref(bins)))
         return off.value, px.value, bins.value
 

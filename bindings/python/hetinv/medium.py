@@ -1,13 +1,13 @@
 """The voxel medium and Mitsuba .vol files."""
 import ctypes
-import os
 
 from . import _arrays
+from ._args import integer, number, path as _path
 from ._errors import OutOfRangeError, check
-from ._handle import Handle
+from ._handle import Handle, handle_arg
 from ._lib import lib
 from ._names import PARAMS, lookup
-from ._structs import VolHeader
+from ._structs import MixtureSpec, SmokeSpec, VolHeader
 
 
 def param_id(param):
@@ -17,10 +17,6 @@ def param_id(param):
 
 def param_name(param):
     return lib.param_name(param_id(param)).decode()
-
-
-def _path(path):
-    return os.fsencode(path)
 
 
 class Medium(Handle):
@@ -34,11 +30,14 @@ class Medium(Handle):
     _destroy_name = "medium_destroy"
 
     def __init__(self, ctx, box_min, box_max, dims):
+        from .context import Context
+
+        c = handle_arg(ctx, Context, "ctx")
         lo = _arrays.fixed(box_min, 3, "d", "box_min")
         hi = _arrays.fixed(box_max, 3, "d", "box_max")
         n = _arrays.fixed(dims, 3, "i", "dims")
         h = ctypes.c_void_p()
-        check(lib.medium_create(ctx._ptr, lo, hi, n, ctypes.byref(h)))
+        check(lib.medium_create(c, lo, hi, n, ctypes.byref(h)))
         super().__init__(h, [ctx])
         self.context = ctx
 
@@ -55,20 +54,24 @@ class Medium(Handle):
         return Medium._adopt_new(h, self.context)
 
     def set_ior(self, eta, eta_out=1.0):
-        check(lib.medium_set_ior(self._ptr, eta, eta_out))
+        check(lib.medium_set_ior(self._ptr, number(eta, "eta"), number(eta_out, "eta_out")))
         return self
 
     def fill(self, sigma_a, sigma_s, g):
-        check(lib.medium_fill(self._ptr, sigma_a, sigma_s, g))
+        check(lib.medium_fill(self._ptr, number(sigma_a, "sigma_a"), number(sigma_s, "sigma_s"),
+                              number(g, "g")))
         return self
 
     def set_voxel(self, ix, iy, iz, sigma_a, sigma_s, g):
-        check(lib.medium_set_voxel(self._ptr, ix, iy, iz, sigma_a, sigma_s, g))
+        check(lib.medium_set_voxel(self._ptr, integer(ix, "ix"), integer(iy, "iy"),
+                                   integer(iz, "iz"), number(sigma_a, "sigma_a"),
+                                   number(sigma_s, "sigma_s"), number(g, "g")))
 
     def get_voxel(self, ix, iy, iz):
         """(σa, σs, g) of voxel (ix, iy, iz)."""
         a, s, g = ctypes.c_double(), ctypes.c_double(), ctypes.c_double()
-        check(lib.medium_get_voxel(self._ptr, ix, iy, iz, ctypes.byref(a), ctypes.byref(s),
+        check(lib.medium_get_voxel(self._ptr, integer(ix, "ix"), integer(iy, "iy"),
+                                   integer(iz, "iz"), ctypes.byref(a), ctypes.byref(s),
                                    ctypes.byref(g)))
         return a.value, s.value, g.value
 
@@ -131,25 +134,39 @@ class Medium(Handle):
     def fill_gaussian_mixture(self, spec=None, **fields):
         """σa, σs, g from a random Gaussian mixture (hetinv_volume_gaussian_mixture).
         spec: a MixtureSpec, or its fields as keywords over the defaults."""
-        from ._structs import MixtureSpec
-
-        spec = spec if spec is not None else MixtureSpec(**fields)
+        spec = _spec(spec, fields, MixtureSpec)
         check(lib.volume_gaussian_mixture(self._ptr, ctypes.byref(spec)))
         return self
 
     def fill_smoke(self, spec=None, **fields):
         """σa, σs, g from a smoke plume (hetinv_volume_smoke)."""
-        from ._structs import SmokeSpec
-
-        spec = spec if spec is not None else SmokeSpec(**fields)
+        spec = _spec(spec, fields, SmokeSpec)
         check(lib.volume_smoke(self._ptr, ctypes.byref(spec)))
         return self
+
+
+def _spec(spec, fields, cls, name="spec"):
+    """`spec` if it is a `cls` (the library reads it as one), else `cls(**fields)`."""
+    if spec is None:
+        return cls(**fields)
+    if not isinstance(spec, cls):
+        raise TypeError("%s: expected hetinv.%s, got %s"
+                        % (name, cls.__name__, type(spec).__name__))
+    if fields:
+        raise TypeError("give either spec or its fields as keywords, not both")
+    return spec
+
+
+def _ctx(ctx):
+    from .context import Context
+
+    return handle_arg(ctx, Context, "ctx")
 
 
 def vol_read_header(ctx, path):
     """The VolHeader of a .vol file (validated; values not read)."""
     header = VolHeader()
-    check(lib.vol_read_header(ctx._ptr, _path(path), ctypes.byref(header)))
+    check(lib.vol_read_header(_ctx(ctx), _path(path), ctypes.byref(header)))
     return header
 
 
@@ -158,17 +175,18 @@ def vol_read(ctx, path):
     header = vol_read_header(ctx, path)
     n = header.dims[0] * header.dims[1] * header.dims[2] * header.channels
     data, ptr = _arrays.empty(n, "f")
-    check(lib.vol_read(ctx._ptr, _path(path), ctypes.byref(header), ptr, n))
+    check(lib.vol_read(_ctx(ctx), _path(path), ctypes.byref(header), ptr, n))
     return header, data
 
 
 def vol_write(ctx, path, data, dims, box_min=(0.0, 0.0, 0.0), box_max=(1.0, 1.0, 1.0),
               channels=1):
     """Write float values (rounded to float32) as a .vol file (atomic)."""
+    c = _ctx(ctx)
     header = VolHeader()
-    header.dims[:] = list(dims)
-    header.channels = channels
-    header.box_min[:] = list(box_min)
-    header.box_max[:] = list(box_max)
+    header.dims[:] = list(_arrays.fixed(dims, 3, "i", "dims"))
+    header.channels = integer(channels, "channels")
+    header.box_min[:] = list(_arrays.fixed(box_min, 3, "d", "box_min"))
+    header.box_max[:] = list(_arrays.fixed(box_max, 3, "d", "box_max"))
     arr = _arrays.to_c(data, "f", name="data")
-    check(lib.vol_write(ctx._ptr, _path(path), ctypes.byref(header), arr.ptr, arr.count))
+    check(lib.vol_write(c, _path(path), ctypes.byref(header), arr.ptr, arr.count))

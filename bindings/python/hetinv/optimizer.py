@@ -1,14 +1,18 @@
 """Appearance matching by stochastic gradient descent (optimizer.h)."""
 import ctypes
-import os
 from collections import namedtuple
 
 from . import _arrays
+from ._args import integer, number, path as _path
 from ._errors import HetinvError, check
-from ._handle import Handle
+from ._handle import Handle, handle_arg, pinned
 from ._lib import PROGRESS_FN, lib
 from ._names import METHODS, OPTIMIZER_PARAMS, STOP_REASONS, STOP_REASONS_INV, lookup  # noqa: F401
+from .context import Context
+from .estimator import Estimator
+from .measurements import Measurements
 from .medium import Medium, param_id
+from .param import ParamMap
 
 #: What the progress callable receives after every iteration (a copy of
 #: hetinv_progress_t).
@@ -24,14 +28,15 @@ def optimizer_param_bounds(param):
     return lo.value, hi.value
 
 
-def _mask_bytes(mask, name):
+def _mask_bytes(mask, count, name):
+    """`count` flags as bytes: the library reads exactly that many, unasked."""
     if mask is None:
         return _arrays.to_c(None)
     if hasattr(mask, "dtype"):
         mask = (mask != 0).astype("uint8")  # 256 must not wrap to 0
     else:
         mask = [1 if m else 0 for m in mask]
-    return _arrays.to_c(mask, "B", name=name)
+    return _arrays.to_c(mask, "B", count, name)
 
 
 class Optimizer(Handle):
@@ -47,22 +52,32 @@ class Optimizer(Handle):
 
     The C optimizer borrows the set and the stage maps: this object keeps
     them (and the initial medium) alive, and closing one of them closes the
-    optimizer first.
+    optimizer first. While it exists the set cannot grow. While run() is
+    running (the progress callback may call back), closing the optimizer,
+    its estimator or anything they use raises RuntimeError.
     """
 
     _destroy_name = "optimizer_destroy"
     param_bounds = staticmethod(optimizer_param_bounds)
+    _running = False
 
     def __init__(self, ctx, measurements, initial, **params):
+        c = handle_arg(ctx, Context, "ctx")
+        sp = handle_arg(measurements, Measurements, "measurements")
+        mp = handle_arg(initial, Medium, "initial")
         h = ctypes.c_void_p()
-        check(lib.optimizer_create(ctx._ptr, measurements._ptr, initial._ptr, ctypes.byref(h)))
+        check(lib.optimizer_create(c, sp, mp, ctypes.byref(h)))
         super().__init__(h, [ctx])
         self.context = ctx
         self._borrow(measurements)
+        measurements._optimizers.add(self)
+        self._measurements = measurements
         self._initial = initial  # copied by the library; kept for the caller's convenience
         self._maps = []          # stage maps, in schedule order
         self._callback = None    # the CFUNCTYPE object: must live as long as the C pointer
-        self._callback_error = None
+        # The callback's exception, kept here until run() re-raises it. The
+        # callback references this list, not the optimizer: no cycle.
+        self._callback_box = [None]
         for name, value in params.items():
             self.set_param(name, value)
 
@@ -70,7 +85,7 @@ class Optimizer(Handle):
         p = lookup(param, OPTIMIZER_PARAMS, "optimizer parameter")
         if p == OPTIMIZER_PARAMS["method"]:
             value = lookup(value, METHODS, "method")
-        check(lib.optimizer_set_param(self._ptr, p, value))
+        check(lib.optimizer_set_param(self._ptr, p, number(value, "value")))
         return self
 
     def get_param(self, param):
@@ -81,17 +96,20 @@ class Optimizer(Handle):
 
     def set_bounds(self, param, lo, hi):
         """Box of one physical parameter ("sigma_a", "sigma_s", "g"); hi may be float("inf")."""
-        check(lib.optimizer_set_bounds(self._ptr, param_id(param), lo, hi))
+        check(lib.optimizer_set_bounds(self._ptr, param_id(param), number(lo, "lo"),
+                                       number(hi, "hi")))
         return self
 
     def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None):
         """Append a stage on `param_map`. frozen: param_map.size flags
         (true = entry kept fixed); value_mask: value_count flags (false =
         value left out). iterations 0: the "iterations" tunable."""
-        f = _mask_bytes(frozen, "frozen")
-        m = _mask_bytes(value_mask, "value_mask")
-        stage = _structs_stage(param_map, iterations, f, m)
-        check(lib.optimizer_add_stage(self._ptr, ctypes.byref(stage)))
+        me = self._ptr
+        handle_arg(param_map, ParamMap, "param_map")
+        f = _mask_bytes(frozen, param_map.size, "frozen")
+        m = _mask_bytes(value_mask, self._measurements.value_count, "value_mask")
+        stage = _structs_stage(param_map, integer(iterations, "iterations"), f, m)
+        check(lib.optimizer_add_stage(me, ctypes.byref(stage)))
         self._borrow(param_map)
         self._maps.append(param_map)
         return self
@@ -99,8 +117,11 @@ class Optimizer(Handle):
     def add_layerwise_stages(self, param_map, layer_thickness, layers, iterations=0):
         """Append the layer-wise stages of the paper's Fig. 2(b) (identity map,
         pathlength-resolved frontlit rows)."""
-        check(lib.optimizer_add_layerwise_stages(self._ptr, param_map._ptr, layer_thickness,
-                                                 layers, iterations))
+        pm = handle_arg(param_map, ParamMap, "param_map")
+        layers = integer(layers, "layers")
+        check(lib.optimizer_add_layerwise_stages(self._ptr, pm,
+                                                 number(layer_thickness, "layer_thickness"),
+                                                 layers, integer(iterations, "iterations")))
         self._borrow(param_map)
         self._maps.extend([param_map] * layers)
         return self
@@ -109,10 +130,14 @@ class Optimizer(Handle):
         """Call fn(Progress) after every iteration; a true return value stops
         the run (stop reason "callback"). An exception raised by fn stops
         the run too and is re-raised by run(). None removes the callback."""
+        me = self._ptr
         if fn is None:
-            check(lib.optimizer_set_progress(self._ptr, PROGRESS_FN(), None))
+            check(lib.optimizer_set_progress(me, PROGRESS_FN(), None))
             self._callback = None
             return self
+        if not callable(fn):
+            raise TypeError("fn: expected a callable or None, got %s" % type(fn).__name__)
+        box = self._callback_box
 
         def trampoline(progress, _user):
             try:
@@ -121,38 +146,59 @@ class Optimizer(Handle):
                                         p.stage_iterations, p.total_iterations, p.loss, p.step,
                                         p.elapsed)) else 0
             except BaseException as e:  # never unwind through C
-                self._callback_error = e
+                if box[0] is None:
+                    box[0] = e
                 return 1
 
         cb = PROGRESS_FN(trampoline)
-        check(lib.optimizer_set_progress(self._ptr, cb, None))
+        check(lib.optimizer_set_progress(me, cb, None))
         self._callback = cb
         return self
 
     def set_checkpoint(self, path):
         """Write checkpoints to `path` during runs (None: stop)."""
-        check(lib.optimizer_set_checkpoint(self._ptr, None if path is None else os.fsencode(path)))
+        check(lib.optimizer_set_checkpoint(self._ptr, None if path is None else _path(path)))
         return self
 
     def save(self, path):
-        check(lib.optimizer_save(self._ptr, os.fsencode(path)))
+        check(lib.optimizer_save(self._ptr, _path(path)))
 
     def resume(self, path):
         """Restore a checkpoint written by an identically configured optimizer."""
-        check(lib.optimizer_resume(self._ptr, os.fsencode(path)))
+        self._not_running("resume")
+        check(lib.optimizer_resume(self._ptr, _path(path)))
         return self
 
     def run(self, estimator):
         """Run the schedule; returns why it ended: "completed", "time_budget"
         or "callback"."""
+        ep = handle_arg(estimator, Estimator, "estimator")
+        me = self._ptr
+        self._not_running("run")
         reason = ctypes.c_int32()
-        self._callback_error = None
-        rc = lib.optimizer_run(self._ptr, estimator._ptr, ctypes.byref(reason))
-        err, self._callback_error = self._callback_error, None
+        box = self._callback_box
+        box[0] = None
+        running_callback = self._callback  # alive even if the callback replaces itself
+        self._running = True
+        try:
+            with pinned(self, estimator):
+                rc = lib.optimizer_run(me, ep, ctypes.byref(reason))
+        finally:
+            self._running = False
+            del running_callback
+        err, box[0] = box[0], None
         if err is not None:
-            raise err
+            try:
+                raise err
+            finally:
+                err = None  # no frame -> exception -> traceback -> frame cycle
         check(rc)
         return STOP_REASONS.get(reason.value, reason.value)
+
+    def _not_running(self, what):
+        if self._running:
+            raise RuntimeError("Optimizer.%s: the optimizer is running (called from its "
+                               "progress callback?)" % what)
 
     def result(self):
         """The current estimate as a new committed Medium."""

@@ -7,10 +7,23 @@ Faces are 0..5 or "x_min" ... "z_max"; a point on a face is (u, v).
 import ctypes
 
 from . import _arrays
+from ._args import integer, number
 from ._errors import check
-from ._handle import Handle
+from ._handle import Handle, handle_arg
 from ._lib import lib
 from ._names import FACES, WINDOWS, lookup
+
+
+def _medium(medium):
+    from .medium import Medium
+
+    return handle_arg(medium, Medium, "medium")
+
+
+def _ctx(ctx):
+    from .context import Context
+
+    return handle_arg(ctx, Context, "ctx")
 
 
 def _from_medium(cls, h, medium):
@@ -35,7 +48,7 @@ class Emitter(Handle):
     def ideal(cls, medium, origin, direction):
         """A collimated pencil beam from `origin` (outside the box) along `direction`."""
         h = ctypes.c_void_p()
-        check(lib.emitter_create_ideal(medium._ptr, _arrays.fixed(origin, 3, "d", "origin"),
+        check(lib.emitter_create_ideal(_medium(medium), _arrays.fixed(origin, 3, "d", "origin"),
                                        _arrays.fixed(direction, 3, "d", "direction"),
                                        ctypes.byref(h)))
         return cls._made(h, medium)
@@ -45,6 +58,7 @@ class Emitter(Handle):
         """A collimated area source on a face's rectangle. `pattern`: weights,
         u fastest, of shape pattern_shape = (width, height); a 2D numpy array
         of shape (height, width) needs no pattern_shape. None: uniform."""
+        mp = _medium(medium)
         if pattern is None:
             w = hgt = 1
             pat = _arrays.to_c(None)
@@ -56,9 +70,12 @@ class Emitter(Handle):
                 hgt, w = shape
             else:
                 w, hgt = pattern_shape
+            w, hgt = integer(w, "pattern width"), integer(hgt, "pattern height")
+            if w < 0 or hgt < 0:
+                raise ValueError("pattern_shape: (%d, %d) has a negative side" % (w, hgt))
             pat = _arrays.to_c(pattern, "d", w * hgt, "pattern")
         h = ctypes.c_void_p()
-        check(lib.emitter_create_area(medium._ptr, face_id(face),
+        check(lib.emitter_create_area(mp, face_id(face),
                                       _arrays.fixed(direction, 3, "d", "direction"),
                                       _arrays.fixed(rect_min, 2, "d", "rect_min"),
                                       _arrays.fixed(rect_max, 2, "d", "rect_max"), w, hgt,
@@ -69,7 +86,7 @@ class Emitter(Handle):
     def diffuse(cls, medium, face, point):
         """A Lambertian point source at face coordinates `point`."""
         h = ctypes.c_void_p()
-        check(lib.emitter_create_diffuse(medium._ptr, face_id(face),
+        check(lib.emitter_create_diffuse(_medium(medium), face_id(face),
                                          _arrays.fixed(point, 2, "d", "point"), ctypes.byref(h)))
         return cls._made(h, medium)
 
@@ -77,12 +94,13 @@ class Emitter(Handle):
     def combination(cls, medium, origins, directions, weights):
         """A weighted sum of pencil beams: origins and directions are lists
         of 3-vectors (or flat 3·n sequences), weights n powers."""
+        mp = _medium(medium)
         w = _arrays.to_c(weights, "d", name="weights")
         o = _arrays.to_c(_flat(origins), "d", 3 * w.count, "origins")
         d = _arrays.to_c(_flat(directions), "d", 3 * w.count, "directions")
         h = ctypes.c_void_p()
-        check(lib.emitter_create_combination(medium._ptr, w.count, o.ptr, d.ptr, w.ptr,
-                                             ctypes.byref(h)))
+        check(lib.emitter_create_combination(mp, integer(w.count, "len(weights)"), o.ptr, d.ptr,
+                                             w.ptr, ctypes.byref(h)))
         return cls._made(h, medium)
 
 
@@ -108,16 +126,16 @@ class Sensor(Handle):
         """A width × height pixel grid on a face seeing light that leaves it along `direction`."""
         h = ctypes.c_void_p()
         check(lib.sensor_create_orthographic(
-            medium._ptr, face_id(face), _arrays.fixed(direction, 3, "d", "direction"),
+            _medium(medium), face_id(face), _arrays.fixed(direction, 3, "d", "direction"),
             _arrays.fixed(origin, 2, "d", "origin"), _arrays.fixed(pixel_size, 2, "d", "pixel_size"),
-            width, height, ctypes.byref(h)))
+            integer(width, "width"), integer(height, "height"), ctypes.byref(h)))
         return _from_medium(cls, h, medium)
 
     @classmethod
     def hemispherical(cls, medium, face, rect_min=None, rect_max=None):
         """All power leaving through a face's rectangle (the whole face if omitted)."""
         h = ctypes.c_void_p()
-        check(lib.sensor_create_hemispherical(medium._ptr, face_id(face),
+        check(lib.sensor_create_hemispherical(_medium(medium), face_id(face),
                                               _arrays.fixed(rect_min, 2, "d", "rect_min"),
                                               _arrays.fixed(rect_max, 2, "d", "rect_max"),
                                               ctypes.byref(h)))
@@ -150,17 +168,19 @@ class Pathlength(Handle):
     def steady(cls, ctx):
         """Steady state: one bin, every pathlength."""
         h = ctypes.c_void_p()
-        check(lib.pathlength_create_steady(ctx._ptr, ctypes.byref(h)))
+        check(lib.pathlength_create_steady(_ctx(ctx), ctypes.byref(h)))
         return cls._made(h, ctx)
 
     @classmethod
     def bins(cls, ctx, centres, width, window="box"):
         """Pathlength bins at `centres` of width (box) or standard deviation
         (window="gaussian") `width`."""
+        cp = _ctx(ctx)
         c = _arrays.to_c(centres, "d", name="centres")
         h = ctypes.c_void_p()
-        check(lib.pathlength_create_bins(ctx._ptr, lookup(window, WINDOWS, "window"), c.count,
-                                         c.ptr, width, ctypes.byref(h)))
+        check(lib.pathlength_create_bins(cp, lookup(window, WINDOWS, "window"),
+                                         integer(c.count, "len(centres)"), c.ptr,
+                                         number(width, "width"), ctypes.byref(h)))
         return cls._made(h, ctx)
 
     @property
