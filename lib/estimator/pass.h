@@ -26,7 +26,7 @@ typedef struct hv_pass {
 /* Validates (estimator, medium, set, count) and builds the pass; on failure
  * nothing needs releasing. */
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
-                              const hetinv_measurements_t *set, size_t count, const char *func,
+                              const hetinv_measurements_t *set, size_t count,
                               hv_pass_t *pass);
 void hv_pass_end(hv_pass_t *pass);
 
@@ -41,7 +41,6 @@ double hv_now_seconds(void);
 
 /* The forward pass on a pass already begun (render.c); fills est's stats. */
 hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, double *values,
-                               double *std_errors, double *ballistic, size_t count,
-                               const char *func);
+                               double *std_errors, double *ballistic, size_t count);
 
 #endif

@@ -159,7 +159,7 @@ static void put_fingerprint(buf_t *b, const fingerprint_t *f) { put(b, f, sizeof
 
 /* --- write --------------------------------------------------------------- */
 
-hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path, const char *func) {
+hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path) {
   const hetinv_context_t *ctx = opt->ctx;
   if (hetinv_context_rank(ctx) != 0) return HETINV_SUCCESS; /* one writer under MPI: every rank holds the same state */
   buf_t b = {.ctx = ctx};
@@ -188,14 +188,14 @@ hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *p
   put_u64(&b, fnv1a(FNV_OFFSET, b.data, b.len));
   if (b.failed) {
     hv_free(ctx, b.data);
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot build the checkpoint of '%s'", path);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot build the checkpoint of '%s'", path);
   }
   hv_atomic_file_t af;
-  hetinv_result_t r = hv_atomic_open(ctx, func, path, 1, &af);
+  hetinv_result_t r = hv_atomic_open(ctx, path, 1, &af);
   if (r == HETINV_SUCCESS) {
     if (fwrite(b.data, 1, b.len, af.fp) != b.len) {
       hv_atomic_abort(&af);
-      r = hv_fail(ctx, HETINV_ERROR_IO, func, "cannot write the checkpoint '%s'", path);
+      r = HV_FAIL(ctx, HETINV_ERROR_IO, "cannot write the checkpoint '%s'", path);
     } else {
       r = hv_atomic_commit(&af);
     }
@@ -205,12 +205,13 @@ hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *p
 }
 
 HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optimizer, const char *path) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   HV_CHECK_NULL(optimizer->ctx, path);
   if (!optimizer->started) {
     return HV_FAIL(optimizer->ctx, HETINV_ERROR_INVALID_STATE, "nothing to save: the run has not started");
   }
-  return hv_checkpoint_write(optimizer, path, __func__);
+  return hv_checkpoint_write(optimizer, path);
 }
 
 /* --- read ---------------------------------------------------------------- */
@@ -243,31 +244,32 @@ static uint64_t stored_checksum(const unsigned char *data, size_t len) {
 }
 
 static hetinv_result_t read_file(const hetinv_context_t *ctx, const char *path, unsigned char **data,
-                                 size_t *len, const char *func) {
+                                 size_t *len) {
   FILE *fp = fopen(path, "rb");
-  if (fp == NULL) return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot open the checkpoint '%s'", path);
+  if (fp == NULL) return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot open the checkpoint '%s'", path);
   long size = -1;
   if (fseek(fp, 0, SEEK_END) == 0) size = ftell(fp);
   if (size < 0 || fseek(fp, 0, SEEK_SET) != 0) {
     fclose(fp);
-    return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot size the checkpoint '%s'", path);
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot size the checkpoint '%s'", path);
   }
   *data = size > 0 ? hv_alloc(ctx, (size_t)size) : NULL;
   if (size > 0 && *data == NULL) {
     fclose(fp);
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot hold the %ld-byte checkpoint '%s'", size, path);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot hold the %ld-byte checkpoint '%s'", size, path);
   }
   size_t got = size > 0 ? fread(*data, 1, (size_t)size, fp) : 0;
   fclose(fp);
   if (got != (size_t)size) {
     hv_free(ctx, *data);
-    return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot read the checkpoint '%s'", path);
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot read the checkpoint '%s'", path);
   }
   *len = (size_t)size;
   return HETINV_SUCCESS;
 }
 
 HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer, const char *path) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   hetinv_optimizer_t *opt = optimizer;
   const hetinv_context_t *ctx = opt->ctx;
@@ -276,7 +278,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
   if (opt->stage_count == 0) return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "add the run's stages before resuming it");
   unsigned char *data = NULL;
   size_t len = 0;
-  hetinv_result_t r = read_file(ctx, path, &data, &len, __func__);
+  hetinv_result_t r = read_file(ctx, path, &data, &len);
   if (r != HETINV_SUCCESS) return r;
 
   reader_t rd = {.p = data, .len = len};
@@ -314,7 +316,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
       r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "'%s': inconsistent stage state", path);
     } else {
       opt->stage = (int32_t)stage;
-      r = hv_optimizer_alloc_stage_arrays(opt, (size_t)k, __func__);
+      r = hv_optimizer_alloc_stage_arrays(opt, (size_t)k);
       opt->stage_iteration = (int64_t)stage_it;
       opt->iteration = (int64_t)it;
       opt->elapsed = elapsed;

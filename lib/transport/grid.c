@@ -4,7 +4,7 @@
 #include "core/error.h"
 #include "medium/medium_internal.h"
 
-hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, hv_grid_t *out) {
+hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
   *out = (hv_grid_t){0};
   out->ctx = medium->ctx;
   size_t n = medium->voxel_count;
@@ -12,7 +12,7 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, h
   out->albedo = hv_calloc(medium->ctx, n, sizeof(double));
   if (out->sigma_t == NULL || out->albedo == NULL) {
     hv_grid_release(out);
-    return hv_fail(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+    return HV_FAIL(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY,
                    "cannot allocate the tracking grid of %zu voxels", n);
   }
   const double *sa = medium->values[HETINV_PARAM_SIGMA_A], *ss = medium->values[HETINV_PARAM_SIGMA_S];
