@@ -34,6 +34,20 @@ static void record(void *user, hetinv_result_t code, const char *message) {
   recorded.count++;
 }
 
+/* The fixture's context allocates through these; while fail_allocations is
+ * set, every allocation fails. */
+static bool fail_allocations;
+
+static void *failing_alloc(void *user, size_t size) {
+  (void)user;
+  return fail_allocations ? NULL : malloc(size);
+}
+
+static void failing_free(void *user, void *ptr) {
+  (void)user;
+  free(ptr);
+}
+
 /* Names of the functions the table exercised (for the completeness check). */
 static char tested[MAX_TESTED][NAME_CAPACITY];
 static int tested_count;
@@ -109,7 +123,7 @@ typedef struct fixture {
   hetinv_medium_t *mutable_medium;
   hetinv_medium_t *other_grid; /* 3 x 1 x 1, committed */
   hetinv_emitter_t *beam;
-  hetinv_sensor_t *ortho, *hemi;
+  hetinv_sensor_t *ortho, *hemi, *wide; /* wide: 10 x 10 pixels */
   hetinv_pathlength_t *steady, *bins;
   hetinv_measurements_t *set, *empty_set;
   hetinv_estimator_t *estimator;
@@ -124,6 +138,8 @@ static void fixture_make(fixture_t *f) {
   init.thread_count = 2;
   init.seed = 7;
   init.error_fn = record;
+  init.alloc_fn = failing_alloc;
+  init.free_fn = failing_free;
   assert_ok(hetinv_context_create(&init, &f->ctx));
   hetinv_context_t *ctx = f->ctx;
   assert_ok(hetinv_medium_create(ctx, box_min, box_max, dims, &f->medium));
@@ -137,6 +153,9 @@ static void fixture_make(fixture_t *f) {
   assert_ok(hetinv_sensor_create_orthographic(f->medium, HETINV_FACE_Z_MIN, (double[]){0, 0, -1},
                                               (double[]){0, 0}, (double[]){0.5, 0.5}, 2, 2,
                                               &f->ortho));
+  assert_ok(hetinv_sensor_create_orthographic(f->medium, HETINV_FACE_Z_MIN, (double[]){0, 0, -1},
+                                              (double[]){0, 0}, (double[]){0.1, 0.1}, 10, 10,
+                                              &f->wide));
   assert_ok(hetinv_sensor_create_hemispherical(f->medium, HETINV_FACE_Z_MAX, (double[]){0, 0},
                                                (double[]){1, 1}, &f->hemi));
   assert_ok(hetinv_pathlength_create_steady(ctx, &f->steady));
@@ -166,6 +185,7 @@ static void fixture_release(fixture_t *f) {
   hetinv_pathlength_destroy(&f->bins);
   hetinv_sensor_destroy(&f->ortho);
   hetinv_sensor_destroy(&f->hemi);
+  hetinv_sensor_destroy(&f->wide);
   hetinv_emitter_destroy(&f->beam);
   hetinv_medium_destroy(&f->medium);
   hetinv_medium_destroy(&f->mutable_medium);
@@ -234,6 +254,11 @@ static void test_context_medium_and_sampling(fixture_t *f) {
   hetinv_measurements_t *set = NULL;
   EXPECT_FAIL(hetinv_measurements_create, (NULL, &set));
   EXPECT_FAIL(hetinv_measurements_add, (f->set, NULL, f->hemi, f->steady, NULL));
+  /* reserve_values, a helper that named itself: growing the values from 64
+   * to 128 fails (the row table, 16 rows, has room) */
+  fail_allocations = true;
+  EXPECT_FAIL(hetinv_measurements_add, (f->set, f->beam, f->wide, f->steady, NULL));
+  fail_allocations = false;
   size_t offset;
   int32_t pixels, bins;
   EXPECT_FAIL(hetinv_measurements_row_layout, (f->set, 99, &offset, &pixels, &bins));
@@ -347,6 +372,11 @@ static void test_io(fixture_t *f) {
   EXPECT_FAIL(hetinv_image_get_attribute_int, (f->image, "nope", &iv));
   /* hv_atomic_open */
   EXPECT_FAIL(hetinv_image_write_exr, (f->image, NO_DIR "i.exr"));
+  /* check_limits, a helper that named itself: more channels than OpenEXR's 32767 */
+  hetinv_image_t *wide = NULL;
+  assert_ok(hetinv_image_create(ctx, 1, 1, 32768, &wide));
+  EXPECT_FAIL(hetinv_image_write_exr, (wide, ht_path("wide.exr")));
+  hetinv_image_destroy(&wide);
   EXPECT_FAIL(hetinv_image_write_png, (f->image, 0, NO_DIR "i.png", 0.0, 1.0, 0));
   /* the EXR reader's helpers */
   EXPECT_FAIL(hetinv_image_read_exr, (ctx, f->bogus, &img));
