@@ -15,7 +15,7 @@ static _Thread_local struct {
   char message[HV_MESSAGE_CAPACITY];
 } last_error;
 
-_Thread_local const char *hv_api_entry;
+_Thread_local const char *hv_api_entry HV_API_ENTRY_TLS;
 
 hetinv_result_t hv_fail(const hetinv_context_t *ctx, hetinv_result_t code, const char *func,
                         const char *fmt, ...) {

@@ -263,7 +263,7 @@ static void test_context_medium_and_sampling(fixture_t *f) {
   int32_t pixels, bins;
   EXPECT_FAIL(hetinv_measurements_row_layout, (f->set, 99, &offset, &pixels, &bins));
   /* check_array, a helper */
-  double values[9] = {1, 1, 1, 1, 1, 1, 1, 1, NAN};
+  double values[9] = {1, 1, 1, 1, 1, 1, 1, 1, (double)NAN};
   EXPECT_FAIL(hetinv_measurements_set_values, (f->set, values, NULL, 9));
   double weights[9] = {1, 1, 1, 1, 1, 1, 1, 1, -1};
   EXPECT_FAIL(hetinv_measurements_set_weights, (f->set, weights, 9));
