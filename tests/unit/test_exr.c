@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 
 #include <openexr.h>
+#include <zlib.h>
 
 #include "test_support.h"
 
@@ -215,6 +216,80 @@ static void writing_replaces_an_existing_file(void **state) {
   hetinv_image_t *back = read_ok(*state, ht_path("old.exr"));
   assert_same_pixels(img, back);
   assert_int_equal(ht_tmpdir_entry_count(), 1);
+  hetinv_image_destroy(&back);
+  hetinv_image_destroy(&img);
+}
+
+/* ---- chunks that ZIP cannot shrink ------------------------------------------------ */
+
+/* The size OpenEXR 3.1's ZIP gives @p n raw chunk bytes: its predictor (bytes
+ * split into even and odd halves, then deltas + 128), then zlib at OpenEXR's
+ * default level (-1: zlib's default). */
+static size_t zip_size(const unsigned char *raw, size_t n) {
+  unsigned char *split = malloc(n), *out = malloc(compressBound((uLong)n));
+  assert_true(split != NULL && out != NULL);
+  for (size_t i = 0; i < n; ++i) split[i % 2 == 0 ? i / 2 : (n + 1) / 2 + i / 2] = raw[i];
+  for (size_t i = n - 1; i > 0; --i) split[i] = (unsigned char)(split[i] - split[i - 1] + 128);
+  uLongf size = compressBound((uLong)n);
+  assert_int_equal(compress2(out, &size, split, (uLong)n, Z_DEFAULT_COMPRESSION), Z_OK);
+  free(split);
+  free(out);
+  return size;
+}
+
+/* Raw chunk bytes that ZIP packs to exactly their own size: noise after a
+ * run of zeros, the run's length searched (each zero saves a little). */
+static void equal_size_chunk(unsigned char *raw, size_t n) {
+  for (size_t zeros = 0; zeros < n; ++zeros) {
+    uint32_t s = 2463534242u; /* xorshift32 */
+    for (size_t i = 0; i < n; ++i) {
+      s ^= s << 13, s ^= s >> 17, s ^= s << 5;
+      raw[i] = i < zeros ? 0 : (unsigned char)s;
+    }
+    if (zip_size(raw, n) == n) return;
+  }
+  fail_msg("no run of zeros makes %zu bytes of noise ZIP to their own size", n);
+}
+
+/* The raw bytes of the file's chunk @p index (checked to be stored raw). */
+static void assert_chunk_is_raw(const char *path, int y, const unsigned char *raw, size_t n) {
+  exr_context_t exr = NULL;
+  exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+  assert_int_equal(exr_start_read(&exr, path, &init), EXR_ERR_SUCCESS);
+  exr_chunk_info_t chunk;
+  assert_int_equal(exr_read_scanline_chunk_info(exr, 0, y, &chunk), EXR_ERR_SUCCESS);
+  assert_int_equal(chunk.unpacked_size, n);
+  assert_int_equal(chunk.packed_size, n); /* any reader takes this for raw data ... */
+  unsigned char *stored = malloc(n);
+  assert_non_null(stored);
+  assert_int_equal(exr_read_chunk(exr, 0, &chunk, stored), EXR_ERR_SUCCESS);
+  assert_memory_equal(stored, raw, n); /* ... so it must be the raw data */
+  free(stored);
+  exr_finish(&exr);
+}
+
+/* OpenEXR 3.1 kept a ZIP chunk that came out exactly as long as the raw data,
+ * and every reader takes such a chunk for raw data: the pixels came back
+ * scrambled. Here the last chunk (row 16, two channels) is such data. */
+static void chunk_zip_cannot_shrink_round_trips(void **state) {
+  enum { W = 64, H = 17, C = 2, ROW = W * 4 };
+  hetinv_image_t *img = make(*state, W, H, C);
+  fill(img); /* rows 0-15: one chunk that compresses */
+  unsigned char raw[C * ROW]; /* the last chunk as stored: channel c0's row, then c1's */
+  equal_size_chunk(raw, sizeof raw);
+  for (int32_t k = 0; k < C; ++k) {
+    float *row = hetinv_image_channel_data(img, k) + (size_t)(H - 1) * W;
+    for (int32_t x = 0; x < W; ++x) {
+      const unsigned char *b = raw + k * ROW + 4 * x;
+      uint32_t bits = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 |
+                      (uint32_t)b[3] << 24;
+      memcpy(&row[x], &bits, sizeof bits);
+    }
+  }
+  assert_ok(hetinv_image_write_exr(img, ht_path("equal.exr")));
+  hetinv_image_t *back = read_ok(*state, ht_path("equal.exr"));
+  assert_same_pixels(img, back);
+  assert_chunk_is_raw(ht_path("equal.exr"), H - 1, raw, sizeof raw);
   hetinv_image_destroy(&back);
   hetinv_image_destroy(&img);
 }
@@ -629,6 +704,7 @@ int main(void) {
       EXR_TEST(attributes_round_trip),
       EXR_TEST(long_channel_names_round_trip),
       EXR_TEST(writing_replaces_an_existing_file),
+      EXR_TEST(chunk_zip_cannot_shrink_round_trips),
       EXR_TEST(half_uint_float_scanline_file_is_converted),
       EXR_TEST(tiled_file_is_read),
       EXR_TEST(channel_order_attribute_is_honoured_only_if_valid),
