@@ -579,6 +579,65 @@ static void put_i32(unsigned char *p, int32_t v) {
   for (int i = 0; i < 4; ++i) p[i] = (unsigned char)(u >> (8 * i));
 }
 
+/* Offset of the channel called @p name (NUL included) in the header's chlist. */
+static size_t channel_offset(const unsigned char *bytes, size_t size, const char *name) {
+  size_t n = strlen(name) + 1;
+  for (size_t i = 0; i + n + 16 < size; ++i) {
+    if (memcmp(bytes + i, "chlist", 7) == 0) {
+      for (size_t j = i; j + n + 16 < size; ++j) {
+        if (memcmp(bytes + j, name, n) == 0) return j;
+      }
+    }
+  }
+  fail_msg("no channel \"%s\"", name);
+  return 0;
+}
+
+/* Every rejection names the file and, where one is at fault, the channel. */
+static void malformed_files_name_the_file_and_the_channel(void **state) {
+  size_t size;
+  unsigned char *bytes = valid_file_bytes(*state, &size);
+  const char *path = ht_path("bad_type.exr");
+  size_t at = channel_offset(bytes, size, "c1");
+  put_i32(bytes + at + 3, 7); /* pixel type 7 */
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_CORRUPT_FILE, path);
+  assert_message_contains(path);
+  assert_message_contains("Invalid pixel type specified (7) adding channel 'c1'");
+  put_i32(bytes + at + 3, 2); /* back to float */
+
+  bytes[at + 1] = 0x7f; /* "c\x7f": not printable */
+  path = ht_path("bad_name.exr");
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_UNSUPPORTED, path);
+  assert_message_contains("channel 1 of '");
+  assert_message_contains(path);
+  bytes[at + 1] = '1';
+
+  put_i32(bytes + at + 3 + 8, 3); /* x sampling 3: 64 pixels are not a multiple */
+  path = ht_path("bad_sampling.exr");
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_CORRUPT_FILE, path);
+  assert_message_contains(path);
+  assert_message_contains("channel 'c1': row width (64) of the data window is not a multiple");
+  put_i32(bytes + at + 3 + 8, 2); /* x sampling 2: valid, but not supported */
+  path = ht_path("subsampled.exr");
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_UNSUPPORTED, path);
+  assert_message_contains("channel \"c1\" of '");
+  assert_message_contains(path);
+  assert_message_contains("is subsampled (2 x 1)");
+  put_i32(bytes + at + 3 + 8, 1);
+
+  for (size_t i = size - 60; i < size - 4; ++i) bytes[i] ^= 0x5a; /* inside the last chunk */
+  path = ht_path("bad_chunk.exr");
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_CORRUPT_FILE, path);
+  assert_message_contains(path);
+  assert_message_contains("chunk 2 (64 x 8 pixels at 0, 32): "); /* rows 32-39 */
+  free(bytes);
+}
+
 static void absurd_data_window_fails_before_allocating(void **state) {
   size_t size;
   unsigned char *bytes = valid_file_bytes(*state, &size);
@@ -717,6 +776,7 @@ int main(void) {
       EXR_TEST(truncated_file_is_corrupt),
       EXR_TEST(corrupt_pixel_data_is_detected),
       EXR_TEST(absurd_data_window_fails_before_allocating),
+      EXR_TEST(malformed_files_name_the_file_and_the_channel),
       EXR_TEST(read_rejects_null_arguments),
       EXR_TEST(write_rejects_null_arguments),
       EXR_TEST(unwritable_destinations_leave_nothing),
