@@ -1,7 +1,7 @@
 /* Writes the seed corpus of fuzz_exr_read into the directory given as the
  * only argument: small files written by hetinv_image_write_exr, and a few
  * written by OpenEXR's C API with what the library does not write itself
- * (tiles; half and uint channels; RLE, PIZ and no compression).
+ * (tiles; half and uint channels; every other compression).
  * Not run by the tests; rerun it (from the fuzz build) to renew the seeds. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -115,9 +115,21 @@ int main(int argc, char **argv) {
   library_file(ctx, "lib_6x4_bins.exr", 6, 4, 3, 0, 1);
   library_file(ctx, "lib_3x17_reordered.exr", 3, 17, 2, 1, 1); /* two chunks, channel order */
   hetinv_context_destroy(&ctx);
-  openexr_file("openexr_scanline_none.exr", 0, EXR_COMPRESSION_NONE);
-  openexr_file("openexr_scanline_rle.exr", 0, EXR_COMPRESSION_RLE);
-  openexr_file("openexr_scanline_piz.exr", 0, EXR_COMPRESSION_PIZ);
+  /* every compression OpenEXR 3.1 can write (not DWA), so that its
+   * decoders get mutated input */
+  static const struct {
+    const char *name;
+    exr_compression_t compression;
+  } kinds[] = {{"none", EXR_COMPRESSION_NONE},   {"rle", EXR_COMPRESSION_RLE},
+               {"zips", EXR_COMPRESSION_ZIPS},   {"zip", EXR_COMPRESSION_ZIP},
+               {"piz", EXR_COMPRESSION_PIZ},     {"pxr24", EXR_COMPRESSION_PXR24},
+               {"b44", EXR_COMPRESSION_B44},     {"b44a", EXR_COMPRESSION_B44A}};
+  for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; ++i) {
+    char name[64];
+    snprintf(name, sizeof name, "openexr_scanline_%s.exr", kinds[i].name);
+    openexr_file(name, 0, kinds[i].compression);
+  }
   openexr_file("openexr_tiled_zip.exr", 1, EXR_COMPRESSION_ZIP);
+  openexr_file("openexr_tiled_piz.exr", 1, EXR_COMPRESSION_PIZ);
   return 0;
 }
