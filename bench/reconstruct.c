@@ -37,6 +37,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "outdir.h"
 #include "recon.h"
 
 #define PROG "hetinv-bench-reconstruct"
@@ -119,10 +120,8 @@ int main(int argc, char **argv) {
   char tmp_dir[512] = "";
   if (out_dir) {
     snprintf(sc.output, sizeof sc.output, "%s", out_dir);
-    if (recon_make_dirs(sc.output) != 0) {
-      fprintf(stderr, PROG ": cannot create '%s': %s\n", sc.output, strerror(errno));
-      return 1;
-    }
+    outdir_t dir; /* locked until the process ends */
+    if (outdir_open(&dir, PROG, sc.output) != 0) return 1;
   } else {
     const char *base = getenv("TMPDIR");
     snprintf(tmp_dir, sizeof tmp_dir, "%s/hetinv-bench-reconstruct-XXXXXX", base && *base ? base : "/tmp");
@@ -162,13 +161,18 @@ int main(int argc, char **argv) {
     if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "simulated acquisition");
     t_sim = recon_now() - t;
   }
-  if (status == 0 && recon_solve(ctx, &sc, &im, false, true, &rec, &t_opt) != HETINV_SUCCESS) {
-    status = recon_fail(PROG, ctx, "reconstruction");
+  char msg[2048];
+  if (status == 0 && recon_solve(ctx, &sc, &im, false, true, &rec, &t_opt, msg, sizeof msg) != HETINV_SUCCESS) {
+    fprintf(stderr, PROG ": %s\n", msg);
+    status = 1;
   }
   recon_errors_t e;
   if (status == 0) {
     recon_errors(truth, rec, &e);
-    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "outputs");
+    if (recon_write_outputs(ctx, &sc, truth, rec, &e, msg, sizeof msg) != HETINV_SUCCESS) {
+      fprintf(stderr, PROG ": %s\n", msg);
+      status = 1;
+    }
   }
   if (status == 0) {
     double total = recon_now() - t0;
