@@ -197,6 +197,12 @@ full_disk)
     expect_no_temporaries "$fs/render"
     unmount "$fs"
   done
+  # A checkpoint larger than the stdio buffer: its fwrite itself fails.
+  mount_tmpfs "$fs" size=12k || fail "cannot mount a 12k tmpfs"
+  run big hetinv-reconstruct "$src/tests/data/reconstruct/io_checkpoint.json" --threads 1 -o "$fs/big" --quiet
+  expect_failure big "checkpoint.bin': No space left on device"
+  expect_no_temporaries "$fs/big"
+  unmount "$fs"
   echo "hetinv-reconstruct: $sizes_failed sizes failed (disk full), $sizes_passed succeeded"
   [ "$sizes_failed" -gt 0 ] || fail "no size was small enough to fill up"
   [ "$sizes_passed" -gt 0 ] || fail "no size was large enough to succeed"
