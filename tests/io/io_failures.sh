@@ -36,6 +36,7 @@ cleanup() {
   for m in $mounted; do umount "$m" 2>/dev/null; done
 }
 trap cleanup EXIT
+trap 'cleanup; exit 1' HUP INT TERM
 
 # run <name> <program> <args...>: runs a program, stdout to $work/<name>.out,
 # stderr to $work/<name>.err, exit status to $rc.
