@@ -266,7 +266,14 @@ lock)
       i=$((i + 1))
     done
     kill -STOP $a 2>/dev/null
-    state=$(cut -d' ' -f3 "/proc/$a/stat" 2>/dev/null)
+    # SIGSTOP arrives asynchronously: wait until the run is stopped (T) or over.
+    j=0
+    while [ $j -lt 500 ]; do
+      state=$(cut -d' ' -f3 "/proc/$a/stat" 2>/dev/null)
+      case $state in T | t | Z | X | "") break ;; esac
+      sleep 0.01
+      j=$((j + 1))
+    done
     if [ "$holder" != "$a" ]; then
       fail "the first run never recorded itself in $dir/.hetinv.lock"
       break
@@ -275,7 +282,7 @@ lock)
     echo "note: attempt $attempt: the first run ended before it could be stopped; trying a longer one"
     kill -CONT $a 2>/dev/null
     wait $a
-    iterations=$((iterations * 10))
+    iterations=$((iterations * 4))
   done
   : >"$dir/planted.tmp-Ab12Cd"
   run b hetinv-reconstruct "$scene" --threads 1 -o "$dir" --quiet
