@@ -188,7 +188,11 @@ full_disk)
       if grep -q "^wrote " "$work/r$k.out"; then fail "${k}k: 'wrote' printed by a failed run"; fi
     fi
     expect_no_temporaries "$fs/out"
-    # hetinv-render's images (four files of one row).
+    # hetinv-render's images (four files of one row), at every other size.
+    if [ $((k % 8)) -ne 4 ]; then
+      unmount "$fs"
+      continue
+    fi
     run d$k hetinv-render "$render_scene" --photons 100 --threads 1 -o "$fs/render"
     if [ "$rc" -ne 0 ]; then
       expect_failure d$k "No space left on device"
