@@ -47,6 +47,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "outdir.h"
 #include "recon.h"
 
 #define PROG "hetinv-bench-reconstruct"
@@ -119,12 +120,17 @@ static int run_volume(recon_scene_t *sc, const char *tag, const double require[2
     if (recon_simulate(ctx, sc, truth, &im) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "simulated acquisition");
     t_sim = recon_now() - t;
   }
-  if (status == 0 && recon_solve(ctx, sc, &im, false, true, &rec, &t_opt) != HETINV_SUCCESS) {
-    status = recon_fail(PROG, ctx, "reconstruction");
+  char msg[2048];
+  if (status == 0 && recon_solve(ctx, sc, &im, false, true, &rec, &t_opt, msg, sizeof msg) != HETINV_SUCCESS) {
+    fprintf(stderr, PROG ": %s\n", msg);
+    status = 1;
   }
   if (status == 0) {
     recon_errors(truth, rec, e);
-    if (recon_write_outputs(ctx, sc, truth, rec, e) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "outputs");
+    if (recon_write_outputs(ctx, sc, truth, rec, e, msg, sizeof msg) != HETINV_SUCCESS) {
+      fprintf(stderr, PROG ": %s\n", msg);
+      status = 1;
+    }
   }
   if (status == 0) {
     *seconds = recon_now() - t0;
@@ -216,11 +222,9 @@ int main(int argc, char **argv) {
   if (truth_photons > 0) sc.truth_photons = truth_photons;
   if (threads >= 0) sc.threads = (int32_t)threads;
   char tmp_dir[512] = "";
+  outdir_t dir = {-1}; /* locked until the process ends */
   if (out_dir) {
-    if (recon_make_dirs(out_dir) != 0) {
-      fprintf(stderr, PROG ": cannot create '%s': %s\n", out_dir, strerror(errno));
-      return 1;
-    }
+    if (outdir_open(&dir, PROG, out_dir) != 0) return 1;
   } else {
     const char *base = getenv("TMPDIR");
     snprintf(tmp_dir, sizeof tmp_dir, "%s/hetinv-bench-reconstruct-XXXXXX", base && *base ? base : "/tmp");
@@ -243,8 +247,7 @@ int main(int argc, char **argv) {
       char tag[64];
       snprintf(tag, sizeof tag, "reconstruct seed=%lld", (long long)s);
       snprintf(sc.output, sizeof sc.output, "%s/seed-%lld", out_dir, (long long)s);
-      if (recon_make_dirs(sc.output) != 0) {
-        fprintf(stderr, PROG ": cannot create '%s': %s\n", sc.output, strerror(errno));
+      if (outdir_prepare(PROG, sc.output) != 0) {
         status = 1;
         break;
       }
@@ -271,5 +274,6 @@ int main(int argc, char **argv) {
     }
   }
   if (tmp_dir[0]) remove_tree(tmp_dir);
-  return status;
+  int out_status = outdir_finish_stdout(PROG);
+  return status != 0 ? status : out_status;
 }

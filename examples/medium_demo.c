@@ -6,14 +6,14 @@
  *
  *   usage: hetinv-medium-demo [output-folder]      (default: out/demo)
  */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include <hetinv/hetinv.h>
+
+#include "outdir.h"
 
 enum { N = 25 };
 
@@ -46,19 +46,10 @@ int main(int argc, char **argv) {
     fprintf(stderr, "usage: %s [output-folder]\n", argv[0]);
     return 2;
   }
-  char cmd[4096];
-  snprintf(cmd, sizeof cmd, "%s", dir);
-  for (char *p = cmd + 1; *p; ++p) { /* mkdir -p */
-    if (*p == '/') {
-      *p = '\0';
-      mkdir(cmd, 0755);
-      *p = '/';
-    }
-  }
-  if (mkdir(cmd, 0755) != 0 && errno != EEXIST) {
-    fprintf(stderr, "hetinv-medium-demo: cannot create '%s': %s\n", dir, strerror(errno));
-    return 1;
-  }
+  /* A folder we can write, locked for this run (released by the kernel
+   * however the process ends), cleared of temporaries a killed run left. */
+  outdir_t out;
+  if (outdir_open(&out, "hetinv-medium-demo", dir) != 0) return 1;
 
   int status = 1;
   hetinv_context_t *ctx = NULL;
@@ -136,5 +127,7 @@ done:
   hetinv_medium_destroy(&loaded);
   hetinv_medium_destroy(&truth);
   hetinv_context_destroy(&ctx);
+  if (outdir_finish_stdout("hetinv-medium-demo") != 0) status = 1;
+  outdir_close(&out);
   return status;
 }

@@ -7,7 +7,7 @@
  * parameter and configuration.
  *
  *   hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]
- *               [--photons N] [--grid N] [--scale S] [-o DIR] [--quiet]
+ *               [--photons N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]
  *
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
  * cube, 6 × 6 section, one 0.1 mm imaging pixel and bin per voxel; 2
@@ -30,13 +30,14 @@
 #include <string.h>
 
 #include "cells.h"
+#include "outdir.h"
 #include "recon.h"
 
 static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--grid N] [--scale S] [-o DIR] [--quiet]\n",
+          "                   [--photons N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]\n",
           what);
   return 2;
 }
@@ -98,15 +99,17 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
 
 /* Simulates, reconstructs and writes one cell's outputs; an interrupted
  * earlier run of the same cell continues from its checkpoint. */
-static int run_cell(const recon_scene_t *sc, bool quiet, experiment_cell_t *cell) {
+static int run_cell(const recon_scene_t *sc, int64_t threads, bool quiet, experiment_cell_t *cell) {
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.seed = sc->seed;
+  init.thread_count = threads >= 0 ? (int32_t)threads : sc->threads;
   hetinv_context_t *ctx = NULL;
   if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return recon_fail("hetinv-fig4", NULL, "context");
   double t0 = recon_now();
   hetinv_medium_t *truth = NULL, *rec = NULL;
   recon_imaging_t im;
   memset(&im, 0, sizeof im);
+  char msg[2048] = "";
   hetinv_result_t r = recon_truth_create(ctx, sc, &truth);
   if (r == HETINV_SUCCESS) r = recon_imaging_build(ctx, truth, sc, &im);
   if (r == HETINV_SUCCESS && !quiet) {
@@ -115,23 +118,24 @@ static int run_cell(const recon_scene_t *sc, bool quiet, experiment_cell_t *cell
     fflush(stdout);
   }
   if (r == HETINV_SUCCESS) r = recon_simulate(ctx, sc, truth, &im);
-  if (r == HETINV_SUCCESS) r = recon_solve(ctx, sc, &im, true, quiet, &rec, NULL);
+  if (r != HETINV_SUCCESS) snprintf(msg, sizeof msg, "%s", hetinv_context_last_error_message(ctx));
+  if (r == HETINV_SUCCESS) r = recon_solve(ctx, sc, &im, true, quiet, &rec, NULL, msg, sizeof msg);
   if (r == HETINV_SUCCESS) {
     recon_errors(truth, rec, &cell->errors);
-    r = recon_write_outputs(ctx, sc, truth, rec, &cell->errors);
+    r = recon_write_outputs(ctx, sc, truth, rec, &cell->errors, msg, sizeof msg);
   }
   cell->seconds = recon_now() - t0;
-  int status = r == HETINV_SUCCESS ? 0 : recon_fail("hetinv-fig4", ctx, sc->name);
+  if (r != HETINV_SUCCESS) fprintf(stderr, "hetinv-fig4: %s: %s\n", sc->name, msg);
   hetinv_medium_destroy(&rec);
   hetinv_medium_destroy(&truth);
   recon_imaging_release(&im);
   hetinv_context_destroy(&ctx);
-  return status;
+  return r == HETINV_SUCCESS ? 0 : 1;
 }
 
 int main(int argc, char **argv) {
   bool full = false, quiet = false, configs[5] = {false, true, true, true, true};
-  int64_t volumes = -1, iterations = -1, photons = -1, grid = -1;
+  int64_t volumes = -1, iterations = -1, photons = -1, grid = -1, threads = -1;
   double scale = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
@@ -165,6 +169,9 @@ int main(int argc, char **argv) {
         return usage(msg);
       }
       ++i;
+    } else if (strcmp(a, "--threads") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &threads) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--configs") == 0) {
       if (next == NULL) return usage("--configs needs a list such as 1,2,4");
       for (int c = 1; c <= 4; ++c) configs[c] = false;
@@ -188,10 +195,10 @@ int main(int argc, char **argv) {
   }
   if (volumes < 0) volumes = full ? 5 : 2;
   if (scale < 0.0) scale = full ? 0.1 : 1.0;
-  if (recon_make_dirs(out) != 0) {
-    fprintf(stderr, "hetinv-fig4: cannot create '%s': %s\n", out, strerror(errno));
-    return 1;
-  }
+  /* Before any simulation: a folder we can write, locked for this run
+   * (released by the kernel however the process ends). */
+  outdir_t dir;
+  if (outdir_open(&dir, "hetinv-fig4", out) != 0) return 1;
   double table_mean[5][3] = {{0}}, table_max[5][3] = {{0}}, seconds[5] = {0};
   double t_all = recon_now();
   for (int c = 1; c <= 4; ++c) {
@@ -204,15 +211,12 @@ int main(int argc, char **argv) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);
         return 1;
       }
-      if (recon_make_dirs(sc.output) != 0) {
-        fprintf(stderr, "hetinv-fig4: cannot create '%s': %s\n", sc.output, strerror(errno));
-        return 1;
-      }
+      if (outdir_prepare("hetinv-fig4", sc.output) != 0) return 1;
       char key[1024];
       experiment_cell_key(&sc, key, sizeof key);
       experiment_cell_t cell;
       bool reused = experiment_cell_load(sc.output, key, &cell);
-      if (!reused && run_cell(&sc, quiet, &cell) != 0) return 1;
+      if (!reused && run_cell(&sc, threads, quiet, &cell) != 0) return 1;
       if (!reused && experiment_cell_store(sc.output, key, &cell) != 0) {
         fprintf(stderr, "hetinv-fig4: %s/cell.csv: %s\n", sc.output, strerror(errno));
         return 1;
@@ -251,10 +255,14 @@ int main(int argc, char **argv) {
     }
   }
   printf("paper (full size): every configuration within 7 %% mean and 15 %% max relative error\n");
-  printf("total %.0f s; table in %s\n", recon_now() - t_all, path);
+  int status = 0;
   if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
-    fprintf(stderr, "hetinv-fig4: cannot write %s\n", path);
-    return 1;
+    fprintf(stderr, "hetinv-fig4: %s: %s\n", path, strerror(errno));
+    status = 1;
+  } else {
+    printf("total %.0f s; table in %s\n", recon_now() - t_all, path);
   }
-  return 0;
+  if (outdir_finish_stdout("hetinv-fig4") != 0) status = 1;
+  outdir_close(&dir);
+  return status;
 }

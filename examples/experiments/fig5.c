@@ -23,12 +23,12 @@
  * novel_view.exr (channels "truth" and "recovered").
  *
  * Exit status: 0 success, 1 failure (message on stderr), 2 usage error. */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "outdir.h"
 #include "recon.h"
 
 #define PROG "hetinv-fig5"
@@ -257,16 +257,19 @@ int main(int argc, char **argv) {
     fprintf(stderr, PROG ": %s\n", msg);
     return 1;
   }
-  if (recon_make_dirs(sc.output) != 0) {
-    fprintf(stderr, PROG ": cannot create the output directory '%s': %s\n", sc.output, strerror(errno));
-    return 1;
-  }
+  /* Before any simulation: a folder we can write, locked for this run
+   * (released by the kernel however the process ends). */
+  outdir_t dir;
+  if (outdir_open(&dir, PROG, sc.output) != 0) return 1;
 
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.seed = sc.seed;
   init.thread_count = sc.threads;
   hetinv_context_t *ctx = NULL;
-  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return recon_fail(PROG, NULL, "context");
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) {
+    outdir_close(&dir);
+    return recon_fail(PROG, NULL, "context");
+  }
   double t0 = recon_now();
   int status = 0;
   hetinv_medium_t *truth = NULL, *rec = NULL;
@@ -291,18 +294,22 @@ int main(int argc, char **argv) {
       status = recon_fail(PROG, ctx, "simulated acquisition");
     } else {
       snprintf(path, sizeof path, "%s/measurements.exr", sc.output);
-      if (recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "measurements.exr");
+      if (recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, path);
       if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
     }
   }
   double seconds = 0.0;
-  if (status == 0 && recon_solve(ctx, &sc, &im, false, quiet, &rec, &seconds) != HETINV_SUCCESS) {
-    status = recon_fail(PROG, ctx, "reconstruction");
+  if (status == 0 && recon_solve(ctx, &sc, &im, false, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
+    fprintf(stderr, PROG ": %s\n", msg);
+    status = 1;
   }
   recon_errors_t e;
   if (status == 0) {
     recon_errors(truth, rec, &e);
-    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, "outputs");
+    if (recon_write_outputs(ctx, &sc, truth, rec, &e, msg, sizeof msg) != HETINV_SUCCESS) {
+      fprintf(stderr, PROG ": %s\n", msg);
+      status = 1;
+    }
   }
   double rel_rms = 0.0, tv = recon_now();
   int64_t view_photons = 0;
@@ -331,5 +338,7 @@ int main(int argc, char **argv) {
   hetinv_medium_destroy(&truth);
   recon_imaging_release(&im);
   hetinv_context_destroy(&ctx);
+  if (outdir_finish_stdout(PROG) != 0) status = 1;
+  outdir_close(&dir);
   return status;
 }

@@ -5,11 +5,11 @@
  *                      [--threads N] [--iterations N] [--photons N]
  *
  * Exit status: 0 success, 1 failure (message on stderr), 2 usage error. */
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "outdir.h"
 #include "recon.h"
 
 #ifdef HETINV_RECONSTRUCT_MPI
@@ -26,7 +26,25 @@ static int usage(const char *what) {
   return 2;
 }
 
-static int run(int argc, char **argv) {
+/* Under MPI every rank runs the program on the same folder and rank 0
+ * writes; so rank 0 alone locks the folder and every rank learns whether
+ * it could (one stopping alone would leave the others waiting for it). */
+static int world_rank(void) {
+  int rank = 0;
+#ifdef HETINV_RECONSTRUCT_MPI
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+#endif
+  return rank;
+}
+
+static int rank0_status(int status) {
+#ifdef HETINV_RECONSTRUCT_MPI
+  MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD);
+#endif
+  return status;
+}
+
+static int run(int argc, char **argv, outdir_t *dir) {
   recon_scene_t sc;
   recon_scene_default(&sc);
   const char *scene_path = NULL, *out_dir = NULL;
@@ -69,10 +87,10 @@ static int run(int argc, char **argv) {
   if (threads >= 0) sc.threads = (int32_t)threads;
   if (iterations > 0) sc.iterations = iterations;
   if (photons > 0) sc.photons = photons;
-  if (recon_make_dirs(sc.output) != 0) {
-    fprintf(stderr, "hetinv-reconstruct: cannot create the output directory '%s': %s\n", sc.output, strerror(errno));
-    return 1;
-  }
+  /* Before any simulation: a folder we can write, locked for this run
+   * (a --resume run takes it again once the interrupted one is gone). */
+  int opened = world_rank() == 0 ? outdir_open(dir, "hetinv-reconstruct", sc.output) : 0;
+  if (rank0_status(opened) != 0) return 1;
 
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.seed = sc.seed;
@@ -110,25 +128,30 @@ static int run(int argc, char **argv) {
       status = recon_fail("hetinv-reconstruct", ctx, "simulated acquisition");
     } else {
       snprintf(path, sizeof path, "%s/measurements.exr", sc.output);
-      if (root && recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = recon_fail("hetinv-reconstruct", ctx, "measurements.exr");
+      if (root && recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = recon_fail("hetinv-reconstruct", ctx, path);
       if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
     }
   }
   double seconds = 0.0;
-  if (status == 0 && recon_solve(ctx, &sc, &im, resume, quiet, &rec, &seconds) != HETINV_SUCCESS) {
-    status = recon_fail("hetinv-reconstruct", ctx, "reconstruction");
+  if (status == 0 && recon_solve(ctx, &sc, &im, resume, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
+    fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+    status = 1;
   }
   if (status == 0 && root) {
     recon_errors_t e;
     recon_errors(truth, rec, &e);
-    if (recon_write_outputs(ctx, &sc, truth, rec, &e) != HETINV_SUCCESS) status = recon_fail("hetinv-reconstruct", ctx, "outputs");
     printf("\nrelative error of the recovery (%zu voxels):\n", hetinv_medium_voxel_count(truth));
     printf("  parameter   mean      max\n");
     for (int p = 0; p < 3; ++p) {
       printf("  %-9s %6.2f %%  %6.2f %%\n", hetinv_param_name(p), 100.0 * e.mean[p], 100.0 * e.max[p]);
     }
     printf("optimisation %.1f s, total %.1f s\n", seconds, recon_now() - t0);
-    printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv}\n", sc.output);
+    if (recon_write_outputs(ctx, &sc, truth, rec, &e, msg, sizeof msg) != HETINV_SUCCESS) {
+      fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+      status = 1;
+    } else {
+      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv}\n", sc.output);
+    }
   }
   hetinv_medium_destroy(&rec);
   hetinv_medium_destroy(&truth);
@@ -142,7 +165,10 @@ int main(int argc, char **argv) {
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
 #endif
-  int status = run(argc, argv);
+  outdir_t dir = {-1};
+  int status = run(argc, argv, &dir);
+  if (outdir_finish_stdout("hetinv-reconstruct") != 0) status = 1;
+  outdir_close(&dir);
 #ifdef HETINV_RECONSTRUCT_MPI
   MPI_Finalize();
 #endif

@@ -123,10 +123,10 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
  * <output>/checkpoint.bin as it goes and <output>/loss.csv at the end. With
  * `resume`, continues from the checkpoint if it exists. `quiet` suppresses
  * the progress line. On success *out holds the recovery and *seconds the
- * optimisation time. */
+ * optimisation time; on failure msg receives "<what or file>: <reason>". */
 hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *scene,
                             recon_imaging_t *im, bool resume, bool quiet,
-                            hetinv_medium_t **out, double *seconds);
+                            hetinv_medium_t **out, double *seconds, char *msg, size_t msg_size);
 
 /* Relative errors |x̂ − x| / x over the voxels, per parameter. */
 typedef struct recon_errors {
@@ -135,15 +135,17 @@ typedef struct recon_errors {
 void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *recovered, recon_errors_t *e);
 
 /* Writes recovered_<param>.vol, maps.exr and maps_<param>.png (truth beside
- * recovery) and errors.csv into the scene's output directory. */
+ * recovery) and errors.csv into the scene's output directory; on failure
+ * msg receives "<file>: <reason>" (the library's message for its writers). */
 hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *scene,
                                     const hetinv_medium_t *truth,
-                                    const hetinv_medium_t *recovered, const recon_errors_t *errors);
+                                    const hetinv_medium_t *recovered, const recon_errors_t *errors,
+                                    char *msg, size_t msg_size);
 
-/* A text file written whole or not at all: recon_text_begin() opens
- * "<path>.tmp" (tmp receives that name; NULL on failure), and
- * recon_text_commit() closes it and renames it over path, or removes it
- * if anything failed (-1). */
+/* A text file written whole or not at all: recon_text_begin() creates
+ * "<path>.tmp-XXXXXX" (tmp receives that name; NULL with errno set on
+ * failure), and recon_text_commit() flushes it to disk, closes it and
+ * renames it over path, or removes it if anything failed (-1, errno set). */
 FILE *recon_text_begin(const char *path, char *tmp, size_t tmp_size);
 int recon_text_commit(FILE *f, const char *tmp, const char *path);
 
@@ -155,8 +157,5 @@ int recon_parse_count(const char *prog, const char *opt, const char *text, int64
                       int64_t *out);
 double recon_now(void);
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
-
-/* mkdir -p; 0 on success. */
-int recon_make_dirs(const char *path);
 
 #endif

@@ -4,7 +4,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "recon.h"
 
@@ -21,18 +20,6 @@ void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *rec, reco
     e->mean[p] = sum / (double)n;
     e->max[p] = mx;
   }
-}
-
-int recon_make_dirs(const char *path) {
-  char buf[1024];
-  snprintf(buf, sizeof buf, "%s", path);
-  for (char *p = buf + 1; *p; ++p) {
-    if (*p != '/') continue;
-    *p = '\0';
-    if (mkdir(buf, 0777) != 0 && errno != EEXIST) return -1;
-    *p = '/';
-  }
-  return mkdir(buf, 0777) != 0 && errno != EEXIST ? -1 : 0;
 }
 
 /* Value of parameter p at section pixel (x, z): the middle y slice. */
@@ -105,7 +92,7 @@ static hetinv_result_t write_exr(hetinv_context_t *ctx, const char *dir, const h
 }
 
 hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_medium_t *truth,
-                                    const hetinv_medium_t *rec, const recon_errors_t *e) {
+                                    const hetinv_medium_t *rec, const recon_errors_t *e, char *msg, size_t msg_size) {
   const char *dir = sc->output;
   hetinv_result_t r = HETINV_SUCCESS;
   char path[1200];
@@ -116,15 +103,29 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
       snprintf(path, sizeof path, "%s/truth_%s.vol", dir, hetinv_param_name(p));
       r = hetinv_medium_write_vol(truth, p, path);
     }
-    if (r == HETINV_SUCCESS) r = write_png(ctx, dir, p, truth, rec);
+    if (r == HETINV_SUCCESS) {
+      snprintf(path, sizeof path, "%s/maps_%s.png", dir, hetinv_param_name(p));
+      r = write_png(ctx, dir, p, truth, rec);
+    }
   }
-  if (r == HETINV_SUCCESS) r = write_exr(ctx, dir, truth, rec);
-  if (r != HETINV_SUCCESS) return r;
+  if (r == HETINV_SUCCESS) {
+    snprintf(path, sizeof path, "%s/maps.exr", dir);
+    r = write_exr(ctx, dir, truth, rec);
+  }
+  if (r != HETINV_SUCCESS) {
+    snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
+    return r;
+  }
   snprintf(path, sizeof path, "%s/errors.csv", dir);
   char tmp[1220];
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
-  if (f == NULL) return HETINV_ERROR_IO;
-  fprintf(f, "parameter,mean_relative_error,max_relative_error\n");
-  for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.6f,%.6f\n", hetinv_param_name(p), e->mean[p], e->max[p]);
-  return recon_text_commit(f, tmp, path) == 0 ? HETINV_SUCCESS : HETINV_ERROR_IO;
+  if (f != NULL) {
+    fprintf(f, "parameter,mean_relative_error,max_relative_error\n");
+    for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.6f,%.6f\n", hetinv_param_name(p), e->mean[p], e->max[p]);
+  }
+  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
+    snprintf(msg, msg_size, "%s: %s", path, strerror(errno));
+    return HETINV_ERROR_IO;
+  }
+  return HETINV_SUCCESS;
 }

@@ -1,5 +1,6 @@
 /* The optimizer schedule of a scene (layer-wise stages, then coarse to
  * fine), a progress line with an ETA, and checkpoint/resume. */
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -71,7 +72,8 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *s
 }
 
 hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, recon_imaging_t *im,
-                            bool resume, bool quiet, hetinv_medium_t **out, double *seconds) {
+                            bool resume, bool quiet, hetinv_medium_t **out, double *seconds, char *msg,
+                            size_t msg_size) {
   *out = NULL;
   hetinv_medium_t *init = NULL;
   hetinv_optimizer_t *opt = NULL;
@@ -115,6 +117,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_run(opt, est, &why);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_result(opt, out);
   if (seconds) *seconds = pl.elapsed;
+  if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "reconstruction: %s", hetinv_context_last_error_message(ctx));
   if (r == HETINV_SUCCESS && hetinv_context_rank(ctx) == 0) {
     /* The loss of every iteration (resumed runs included), written atomically. */
     size_t n = 0;
@@ -123,12 +126,16 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
     snprintf(path, sizeof path, "%s/loss.csv", sc->output);
     char tmp[1120];
     FILE *f = recon_text_begin(path, tmp, sizeof tmp);
-    if (f) {
+    if (f != NULL) {
       fprintf(f, "iteration,loss\n");
       for (size_t i = 0; i < n; ++i) fprintf(f, "%zu,%.9g\n", i + 1, losses[i]);
-      recon_text_commit(f, tmp, path);
+    }
+    if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
+      snprintf(msg, msg_size, "%s: %s", path, strerror(errno));
+      r = HETINV_ERROR_IO;
     }
   }
+  if (r != HETINV_SUCCESS) hetinv_medium_destroy(out);
   for (int i = 0; i <= RECON_MAX_LEVELS; ++i) hetinv_param_map_destroy(&maps[i]);
   hetinv_estimator_destroy(&est);
   hetinv_optimizer_destroy(&opt);

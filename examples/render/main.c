@@ -13,8 +13,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
+#include "outdir.h"
 #include "output.h"
 #include "scene.h"
 
@@ -121,30 +121,6 @@ static int parse_options(int argc, char **argv, options_t *o) {
   return -1;
 }
 
-/* mkdir -p */
-static int make_folder(const char *dir) {
-  char path[4096];
-  if (snprintf(path, sizeof path, "%s", dir) >= (int)sizeof path) {
-    errno = ENAMETOOLONG;
-    return -1;
-  }
-  for (char *p = path + 1; *p; ++p) {
-    if (*p == '/') {
-      *p = '\0';
-      if (mkdir(path, 0755) != 0 && errno != EEXIST) return -1;
-      *p = '/';
-    }
-  }
-  if (mkdir(path, 0755) != 0 && errno != EEXIST) return -1;
-  struct stat st;
-  if (stat(path, &st) != 0) return -1;
-  if (!S_ISDIR(st.st_mode)) {
-    errno = ENOTDIR;
-    return -1;
-  }
-  return 0;
-}
-
 /* out/<file name without folder and .json> */
 static void default_outdir(const char *scene, char *out, size_t size) {
   const char *base = strrchr(scene, '/');
@@ -165,6 +141,7 @@ int main(int argc, char **argv) {
   scene_t sc;
   hetinv_context_t *ctx = NULL;
   hetinv_estimator_t *est = NULL;
+  outdir_t dir = {-1};
   double *values = NULL;
   FILE *log = opt.quiet ? NULL : (opt.totals_json ? stderr : stdout);
   char outdir[4096];
@@ -188,6 +165,12 @@ int main(int argc, char **argv) {
     goto fail;
   }
   if (scene_build(&sc, ctx, &jr) < 0) goto fail;
+
+  /* Orthographic rows write images: their folder is checked and locked
+   * before the render (released by the kernel however the process ends). */
+  int images = 0;
+  for (int i = 0; i < sc.row_count; ++i) images |= sc.sensors[sc.rows[i].sensor].kind == SENSOR_ORTHOGRAPHIC;
+  if (images && outdir_open(&dir, "hetinv-render", outdir) != 0) goto done;
 
   r = hetinv_estimator_create(ctx, &est);
   if (r != HETINV_SUCCESS) {
@@ -230,12 +213,6 @@ int main(int argc, char **argv) {
     goto fail;
   }
 
-  int images = 0;
-  for (int i = 0; i < sc.row_count; ++i) images |= sc.sensors[sc.rows[i].sensor].kind == SENSOR_ORTHOGRAPHIC;
-  if (images && make_folder(outdir) != 0) {
-    fprintf(stderr, "hetinv-render: cannot create the folder '%s': %s\n", outdir, strerror(errno));
-    goto done;
-  }
   if (images && output_write_images(&sc, ctx, &res, outdir, log, &jr) < 0) goto fail;
   output_print_summary(&sc, &res, log);
   if (opt.totals_json && output_print_totals_json(&sc, &res, stdout) < 0) {
@@ -252,5 +229,7 @@ done:
   hetinv_estimator_destroy(&est);
   scene_destroy(&sc);
   hetinv_context_destroy(&ctx);
+  if (outdir_finish_stdout("hetinv-render") != 0) status = 1;
+  outdir_close(&dir);
   return status;
 }

@@ -248,7 +248,9 @@ HETINV_API hetinv_result_t hetinv_image_get_attribute_int(const hetinv_image_t *
 
 /**
  * @brief Write the image as a single-part scanline OpenEXR file, float32
- *        channels, ZIP compression, with its attributes in the header.
+ *        channels, ZIP compression (a chunk ZIP does not shrink is stored
+ *        uncompressed, as the format requires), with its attributes in the
+ *        header.
  *        Atomic (temporary file, then rename). OpenEXR stores channels
  *        sorted by name; when the image's order differs, the string-vector
  *        attribute "hetinv:channelOrder" records it and

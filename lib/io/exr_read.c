@@ -49,30 +49,33 @@ typedef struct exr_reader {
   int32_t *file_to_image; /* channel k of the file is image channel file_to_image[k] */
   hetinv_image_t *image;
   exr_result_t (*decompress)(exr_decode_pipeline_t *); /* OpenEXR's own */
+  char where[96]; /* "chunk 3 (...): " while a chunk is read, else "" */
 } exr_reader_t;
 
-/* Maps an OpenEXR failure to our codes. */
+/* Maps an OpenEXR failure to our codes; names the chunk if one is being read. */
 static hetinv_result_t fail_exr(const exr_reader_t *rd, exr_result_t rv) {
   const char *what = hv_exr_error_message(rv), *name = exr_get_error_code_as_string(rv);
+  const char *where = rd->where;
   switch (rv) {
     case EXR_ERR_OUT_OF_MEMORY:
-      return HV_FAIL(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, "'%s': %s", rd->path, what);
+      return HV_FAIL(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, "'%s': %s%s", rd->path, where, what);
     case EXR_ERR_FILE_ACCESS:
-      return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot read '%s': %s", rd->path, what);
+      return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot read '%s': %s%s", rd->path, where,
+                     what);
     case EXR_ERR_FEATURE_NOT_IMPLEMENTED:
-      return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED, "'%s' uses an unsupported feature: %s",
-                     rd->path, what);
+      return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
+                     "'%s' uses an unsupported feature: %s%s", rd->path, where, what);
     case EXR_ERR_READ_IO:
       if (rd->os_error != 0) {
-        return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot read '%s': %s", rd->path,
+        return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot read '%s': %s%s", rd->path, where,
                        strerror(rd->os_error));
       }
       /* a short read of an intact file: it is truncated */
-      return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is truncated: %s (%s)",
-                     rd->path, what, name);
+      return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is truncated: %s%s (%s)",
+                     rd->path, where, what, name);
     default: /* everything else comes from the file's content */
       return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE,
-                     "'%s' is not a valid OpenEXR file: %s (%s)", rd->path, what, name);
+                     "'%s' is not a valid OpenEXR file: %s%s (%s)", rd->path, where, what, name);
   }
 }
 
@@ -366,6 +369,8 @@ static hetinv_result_t decode_chunk(exr_reader_t *rd, exr_decode_pipeline_t *dec
     return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE, "'%s': chunk %d holds no data",
                    rd->path, (int)chunk->idx);
   }
+  snprintf(rd->where, sizeof rd->where, "chunk %d (%d x %d pixels at %lld, %lld): ",
+           (int)chunk->idx, (int)chunk->width, (int)chunk->height, (long long)x0, (long long)y0);
   exr_result_t rv = *started ? exr_decoding_update(rd->exr, 0, chunk, dec)
                              : exr_decoding_initialize(rd->exr, 0, chunk, dec);
   if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
@@ -417,6 +422,7 @@ static hetinv_result_t read_scanlines(exr_reader_t *rd, exr_decode_pipeline_t *d
   hetinv_result_t r = HETINV_SUCCESS;
   for (int64_t y = rd->window.min.y; y <= rd->window.max.y && r == HETINV_SUCCESS; y += rows) {
     exr_chunk_info_t chunk;
+    snprintf(rd->where, sizeof rd->where, "the chunk of row %lld: ", (long long)y);
     rv = exr_read_scanline_chunk_info(rd->exr, 0, (int)y, &chunk);
     if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
     int64_t x0 = chunk.width == rd->width ? 0 : -1; /* -1: rejected by decode_chunk */
@@ -441,6 +447,7 @@ static hetinv_result_t read_tiles(exr_reader_t *rd, exr_decode_pipeline_t *dec, 
   for (int64_t ty = 0; ty * tile_h < rd->height && r == HETINV_SUCCESS; ++ty) {
     for (int64_t tx = 0; tx * tile_w < rd->width && r == HETINV_SUCCESS; ++tx) {
       exr_chunk_info_t chunk;
+      snprintf(rd->where, sizeof rd->where, "tile (%lld, %lld): ", (long long)tx, (long long)ty);
       rv = exr_read_tile_chunk_info(rd->exr, 0, (int)tx, (int)ty, 0, 0, &chunk);
       if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
       r = decode_chunk(rd, dec, started, &chunk, tx * tile_w, ty * tile_h);
@@ -455,6 +462,7 @@ static hetinv_result_t read_pixels(exr_reader_t *rd) {
   hetinv_result_t r = rd->storage == EXR_STORAGE_TILED ? read_tiles(rd, &dec, &started)
                                                        : read_scanlines(rd, &dec, &started);
   exr_decoding_destroy(rd->exr, &dec);
+  rd->where[0] = '\0';
   return r;
 }
 

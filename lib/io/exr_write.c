@@ -17,6 +17,7 @@ typedef struct exr_job {
   exr_context_t exr;
   int part;
   int32_t *file_to_image; /* channel k of the file is image channel file_to_image[k] */
+  exr_result_t (*compress)(exr_encode_pipeline_t *); /* OpenEXR's own */
 } exr_job_t;
 
 /* Failure of an OpenEXR call. */
@@ -102,6 +103,21 @@ static hetinv_result_t map_channels(exr_job_t *job) {
   return HETINV_SUCCESS;
 }
 
+/* A chunk whose packed size is not below its raw size is raw data to every
+ * reader (the OpenEXR format; the C++ library writes such chunks raw).
+ * OpenEXR 3.1's core keeps a ZIP chunk that comes out exactly as long as the
+ * raw data, which any reader then takes for pixels: store the raw bytes. */
+static exr_result_t compress_or_store(exr_encode_pipeline_t *enc) {
+  exr_result_t rv = ((const exr_job_t *)enc->encoding_user_data)->compress(enc);
+  if (rv != EXR_ERR_SUCCESS || enc->compressed_bytes < enc->packed_bytes) return rv;
+  if (enc->compressed_buffer == NULL || enc->compressed_alloc_size < enc->packed_bytes) {
+    return EXR_ERR_INVALID_ARGUMENT; /* OpenEXR's buffer cannot hold the raw chunk: a bug */
+  }
+  memcpy(enc->compressed_buffer, enc->packed_buffer, enc->packed_bytes);
+  enc->compressed_bytes = enc->packed_bytes;
+  return EXR_ERR_SUCCESS;
+}
+
 /* Encodes and writes every chunk, top to bottom. */
 static hetinv_result_t write_chunks(exr_job_t *job) {
   const hetinv_image_t *img = job->image;
@@ -134,6 +150,11 @@ static hetinv_result_t write_chunks(exr_job_t *job) {
       call = "exr_encoding_choose_default_routines";
       rv = exr_encoding_choose_default_routines(job->exr, job->part, &encoder);
       started = rv == EXR_ERR_SUCCESS;
+      if (started && encoder.compress_fn != NULL) {
+        job->compress = encoder.compress_fn;
+        encoder.compress_fn = compress_or_store;
+        encoder.encoding_user_data = job;
+      }
     }
     if (rv == EXR_ERR_SUCCESS) {
       call = "exr_encoding_run";

@@ -1,3 +1,4 @@
+#include <errno.h>
 #include <math.h>
 #include <png.h>
 #include <stdio.h>
@@ -59,8 +60,13 @@ static void render_row(const png_job_t *job, int32_t y) {
 }
 
 static void on_png_error(png_structp png, png_const_charp message) {
+  int err = errno; /* libpng's "Write Error" follows a failed fwrite: say why */
   png_job_t *job = png_get_error_ptr(png);
-  snprintf(job->message, sizeof job->message, "%s", message);
+  if (strcmp(message, "Write Error") == 0 && err != 0) {
+    snprintf(job->message, sizeof job->message, "%s", strerror(err));
+  } else {
+    snprintf(job->message, sizeof job->message, "%s", message);
+  }
   png_longjmp(png, 1);
 }
 

@@ -13,6 +13,7 @@
  *     accumulators, window, ring count and head, ring, loss count and
  *     losses, the base medium's three grids;
  *   FNV-1a 64 of everything before. */
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -194,8 +195,10 @@ hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *p
   hetinv_result_t r = hv_atomic_open(ctx, path, 1, &af);
   if (r == HETINV_SUCCESS) {
     if (fwrite(b.data, 1, b.len, af.fp) != b.len) {
+      int err = errno;
       hv_atomic_abort(&af);
-      r = HV_FAIL(ctx, HETINV_ERROR_IO, "cannot write the checkpoint '%s'", path);
+      r = HV_FAIL(ctx, HETINV_ERROR_IO, "cannot write the checkpoint '%s': %s", path,
+                  strerror(err != 0 ? err : EIO));
     } else {
       r = hv_atomic_commit(&af);
     }

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 
 #include <openexr.h>
+#include <zlib.h>
 
 #include "test_support.h"
 
@@ -215,6 +216,80 @@ static void writing_replaces_an_existing_file(void **state) {
   hetinv_image_t *back = read_ok(*state, ht_path("old.exr"));
   assert_same_pixels(img, back);
   assert_int_equal(ht_tmpdir_entry_count(), 1);
+  hetinv_image_destroy(&back);
+  hetinv_image_destroy(&img);
+}
+
+/* ---- chunks that ZIP cannot shrink ------------------------------------------------ */
+
+/* The size OpenEXR 3.1's ZIP gives @p n raw chunk bytes: its predictor (bytes
+ * split into even and odd halves, then deltas + 128), then zlib at OpenEXR's
+ * default level (-1: zlib's default). */
+static size_t zip_size(const unsigned char *raw, size_t n) {
+  unsigned char *split = malloc(n), *out = malloc(compressBound((uLong)n));
+  assert_true(split != NULL && out != NULL);
+  for (size_t i = 0; i < n; ++i) split[i % 2 == 0 ? i / 2 : (n + 1) / 2 + i / 2] = raw[i];
+  for (size_t i = n - 1; i > 0; --i) split[i] = (unsigned char)(split[i] - split[i - 1] + 128);
+  uLongf size = compressBound((uLong)n);
+  assert_int_equal(compress2(out, &size, split, (uLong)n, Z_DEFAULT_COMPRESSION), Z_OK);
+  free(split);
+  free(out);
+  return size;
+}
+
+/* Raw chunk bytes that ZIP packs to exactly their own size: noise after a
+ * run of zeros, the run's length searched (each zero saves a little). */
+static void equal_size_chunk(unsigned char *raw, size_t n) {
+  for (size_t zeros = 0; zeros < n; ++zeros) {
+    uint32_t s = 2463534242u; /* xorshift32 */
+    for (size_t i = 0; i < n; ++i) {
+      s ^= s << 13, s ^= s >> 17, s ^= s << 5;
+      raw[i] = i < zeros ? 0 : (unsigned char)s;
+    }
+    if (zip_size(raw, n) == n) return;
+  }
+  fail_msg("no run of zeros makes %zu bytes of noise ZIP to their own size", n);
+}
+
+/* The raw bytes of the file's chunk @p index (checked to be stored raw). */
+static void assert_chunk_is_raw(const char *path, int y, const unsigned char *raw, size_t n) {
+  exr_context_t exr = NULL;
+  exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+  assert_int_equal(exr_start_read(&exr, path, &init), EXR_ERR_SUCCESS);
+  exr_chunk_info_t chunk;
+  assert_int_equal(exr_read_scanline_chunk_info(exr, 0, y, &chunk), EXR_ERR_SUCCESS);
+  assert_int_equal(chunk.unpacked_size, n);
+  assert_int_equal(chunk.packed_size, n); /* any reader takes this for raw data ... */
+  unsigned char *stored = malloc(n);
+  assert_non_null(stored);
+  assert_int_equal(exr_read_chunk(exr, 0, &chunk, stored), EXR_ERR_SUCCESS);
+  assert_memory_equal(stored, raw, n); /* ... so it must be the raw data */
+  free(stored);
+  exr_finish(&exr);
+}
+
+/* OpenEXR 3.1 kept a ZIP chunk that came out exactly as long as the raw data,
+ * and every reader takes such a chunk for raw data: the pixels came back
+ * scrambled. Here the last chunk (row 16, two channels) is such data. */
+static void chunk_zip_cannot_shrink_round_trips(void **state) {
+  enum { W = 64, H = 17, C = 2, ROW = W * 4 };
+  hetinv_image_t *img = make(*state, W, H, C);
+  fill(img); /* rows 0-15: one chunk that compresses */
+  unsigned char raw[C * ROW]; /* the last chunk as stored: channel c0's row, then c1's */
+  equal_size_chunk(raw, sizeof raw);
+  for (int32_t k = 0; k < C; ++k) {
+    float *row = hetinv_image_channel_data(img, k) + (size_t)(H - 1) * W;
+    for (int32_t x = 0; x < W; ++x) {
+      const unsigned char *b = raw + k * ROW + 4 * x;
+      uint32_t bits = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 |
+                      (uint32_t)b[3] << 24;
+      memcpy(&row[x], &bits, sizeof bits);
+    }
+  }
+  assert_ok(hetinv_image_write_exr(img, ht_path("equal.exr")));
+  hetinv_image_t *back = read_ok(*state, ht_path("equal.exr"));
+  assert_same_pixels(img, back);
+  assert_chunk_is_raw(ht_path("equal.exr"), H - 1, raw, sizeof raw);
   hetinv_image_destroy(&back);
   hetinv_image_destroy(&img);
 }
@@ -504,6 +579,65 @@ static void put_i32(unsigned char *p, int32_t v) {
   for (int i = 0; i < 4; ++i) p[i] = (unsigned char)(u >> (8 * i));
 }
 
+/* Offset of the channel called @p name (NUL included) in the header's chlist. */
+static size_t channel_offset(const unsigned char *bytes, size_t size, const char *name) {
+  size_t n = strlen(name) + 1;
+  for (size_t i = 0; i + n + 16 < size; ++i) {
+    if (memcmp(bytes + i, "chlist", 7) == 0) {
+      for (size_t j = i; j + n + 16 < size; ++j) {
+        if (memcmp(bytes + j, name, n) == 0) return j;
+      }
+    }
+  }
+  fail_msg("no channel \"%s\"", name);
+  return 0;
+}
+
+/* Every rejection names the file and, where one is at fault, the channel. */
+static void malformed_files_name_the_file_and_the_channel(void **state) {
+  size_t size;
+  unsigned char *bytes = valid_file_bytes(*state, &size);
+  const char *path = ht_path("bad_type.exr");
+  size_t at = channel_offset(bytes, size, "c1");
+  put_i32(bytes + at + 3, 7); /* pixel type 7 */
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_CORRUPT_FILE, path);
+  assert_message_contains(path);
+  assert_message_contains("Invalid pixel type specified (7) adding channel 'c1'");
+  put_i32(bytes + at + 3, 2); /* back to float */
+
+  bytes[at + 1] = 0x7f; /* "c\x7f": not printable */
+  path = ht_path("bad_name.exr");
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_UNSUPPORTED, path);
+  assert_message_contains("channel 1 of '");
+  assert_message_contains(path);
+  bytes[at + 1] = '1';
+
+  put_i32(bytes + at + 3 + 8, 3); /* x sampling 3: 64 pixels are not a multiple */
+  path = ht_path("bad_sampling.exr");
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_CORRUPT_FILE, path);
+  assert_message_contains(path);
+  assert_message_contains("channel 'c1': row width (64) of the data window is not a multiple");
+  put_i32(bytes + at + 3 + 8, 2); /* x sampling 2: valid, but not supported */
+  path = ht_path("subsampled.exr");
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_UNSUPPORTED, path);
+  assert_message_contains("channel \"c1\" of '");
+  assert_message_contains(path);
+  assert_message_contains("is subsampled (2 x 1)");
+  put_i32(bytes + at + 3 + 8, 1);
+
+  for (size_t i = size - 60; i < size - 4; ++i) bytes[i] ^= 0x5a; /* inside the last chunk */
+  path = ht_path("bad_chunk.exr");
+  ht_write_file(path, bytes, size);
+  assert_read_fails(*state, HETINV_ERROR_CORRUPT_FILE, path);
+  assert_message_contains(path);
+  assert_message_contains("chunk 2 (64 x 8 pixels at 0, 32): "); /* rows 32-39 */
+  free(bytes);
+}
+
 static void absurd_data_window_fails_before_allocating(void **state) {
   size_t size;
   unsigned char *bytes = valid_file_bytes(*state, &size);
@@ -629,6 +763,7 @@ int main(void) {
       EXR_TEST(attributes_round_trip),
       EXR_TEST(long_channel_names_round_trip),
       EXR_TEST(writing_replaces_an_existing_file),
+      EXR_TEST(chunk_zip_cannot_shrink_round_trips),
       EXR_TEST(half_uint_float_scanline_file_is_converted),
       EXR_TEST(tiled_file_is_read),
       EXR_TEST(channel_order_attribute_is_honoured_only_if_valid),
@@ -641,6 +776,7 @@ int main(void) {
       EXR_TEST(truncated_file_is_corrupt),
       EXR_TEST(corrupt_pixel_data_is_detected),
       EXR_TEST(absurd_data_window_fails_before_allocating),
+      EXR_TEST(malformed_files_name_the_file_and_the_channel),
       EXR_TEST(read_rejects_null_arguments),
       EXR_TEST(write_rejects_null_arguments),
       EXR_TEST(unwritable_destinations_leave_nothing),
