@@ -29,7 +29,9 @@ hetinv_result_t hv_fail(const hetinv_context_t *ctx, hetinv_result_t code, const
   last_error.ctx = ctx;
   last_error.code = code;
   if (ctx != NULL && ctx->error_fn != NULL) {
+    const char *entry = hv_api_suspend();
     ctx->error_fn(ctx->error_user_data, code, last_error.message);
+    hv_api_resume(entry);
   }
   return code;
 }

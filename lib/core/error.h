@@ -71,6 +71,17 @@ static inline void hv_api_leave(const char *const *outer) { hv_api_entry = *oute
 #define HV_API_ADOPT(entry) (void)(hv_api_entry = (entry))
 #endif
 
+/* User code the library calls (the error and progress callbacks) is outside
+ * the library: a public function it calls reports its own name. Brackets
+ * the call: `const char *e = hv_api_suspend(); fn(...); hv_api_resume(e);` */
+static inline const char *hv_api_suspend(void) {
+  const char *entry = hv_api_entry;
+  hv_api_entry = NULL;
+  return entry;
+}
+
+static inline void hv_api_resume(const char *entry) { hv_api_entry = entry; }
+
 static inline const char *hv_api_adopt(const char *entry) {
   const char *outer = hv_api_entry;
   hv_api_entry = entry;

@@ -216,7 +216,9 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
           .step = step,
           .elapsed = opt->elapsed,
       };
+      const char *entry = hv_api_suspend();
       if (opt->progress(&p, opt->user) != 0) why = HETINV_STOP_CALLBACK;
+      hv_api_resume(entry);
     }
   }
   if (r == HETINV_SUCCESS && opt->checkpoint_path) r = hv_checkpoint_write(opt, opt->checkpoint_path);

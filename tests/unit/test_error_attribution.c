@@ -382,6 +382,19 @@ static void test_io(fixture_t *f) {
   EXPECT_FAIL(hetinv_image_read_exr, (ctx, f->bogus, &img));
 }
 
+/* The progress callback is the user's code: a public function it calls
+ * reports its own name, not hetinv_optimizer_run's. */
+static char progress_message[512];
+
+static int progress(const hetinv_progress_t *p, void *user) {
+  (void)p;
+  (void)user;
+  hetinv_medium_t *m = NULL;
+  hetinv_medium_clone(NULL, &m);
+  snprintf(progress_message, sizeof progress_message, "%s", hetinv_context_last_error_message(NULL));
+  return 0;
+}
+
 static void test_optimizer(fixture_t *f) {
   hetinv_optimizer_t *opt = NULL;
   EXPECT_FAIL(hetinv_optimizer_create, (f->ctx, f->empty_set, f->medium, &opt));
@@ -405,8 +418,14 @@ static void test_optimizer(fixture_t *f) {
   EXPECT_FAIL(hetinv_optimizer_resume, (opt, f->bogus));
   /* the run's final checkpoint: run -> hv_checkpoint_write -> hv_atomic_open */
   assert_ok(hetinv_optimizer_set_checkpoint(opt, NO_DIR "run.ckpt"));
+  assert_ok(hetinv_optimizer_set_progress(opt, progress, NULL));
   hetinv_stop_reason_t reason;
   EXPECT_FAIL(hetinv_optimizer_run, (opt, f->estimator, &reason));
+  if (!starts_with(progress_message, "hetinv_medium_clone: ")) {
+    print_error("a failure in the progress callback reads \"%s\"; it must name hetinv_medium_clone\n",
+                progress_message);
+    mismatches++;
+  }
   /* hv_checkpoint_write -> hv_atomic_open */
   EXPECT_FAIL(hetinv_optimizer_save, (opt, NO_DIR "saved.ckpt"));
   /* the public hetinv_optimizer_add_stage refuses (the run has started): the
@@ -440,6 +459,32 @@ static void test_entry_is_left_on_return(void **state) {
   hetinv_estimator_param_bounds((hetinv_estimator_param_t)99, &lo, &hi);
   assert_true(
       starts_with(hetinv_context_last_error_message(NULL), "hetinv_estimator_param_bounds: "));
+}
+
+/* The error callback is the user's code too. */
+static char callback_message[512];
+
+static void calls_the_library(void *user, hetinv_result_t code, const char *message) {
+  (void)user;
+  (void)code;
+  (void)message;
+  double lo, hi;
+  hetinv_estimator_param_bounds((hetinv_estimator_param_t)99, &lo, &hi); /* no context: no recursion */
+  snprintf(callback_message, sizeof callback_message, "%s", hetinv_context_last_error_message(NULL));
+}
+
+static void test_callback_is_outside(void **state) {
+  (void)state;
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.error_fn = calls_the_library;
+  hetinv_context_t *ctx = NULL;
+  assert_ok(hetinv_context_create(&init, &ctx));
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_pathlength_create_steady(ctx, NULL));
+  hetinv_context_destroy(&ctx);
+  if (!starts_with(callback_message, "hetinv_estimator_param_bounds: ")) {
+    print_error("a failure in the error callback reads \"%s\"\n", callback_message);
+    fail();
+  }
 }
 
 /* Appends to @p out every "HETINV_API hetinv_result_t <name>(" of @p text. */
@@ -514,6 +559,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_every_public_call),
       cmocka_unit_test(test_entry_is_left_on_return),
+      cmocka_unit_test(test_callback_is_outside),
       cmocka_unit_test(test_table_is_complete),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
