@@ -32,8 +32,7 @@ HETINV_API void hetinv_noise_model_default(hetinv_noise_model_t *model) {
                                   .first_index = 0};
 }
 
-static hetinv_result_t check_model(const hetinv_context_t *ctx,
-                                   const hetinv_noise_model_t *m) {
+static hetinv_result_t check_model(const hetinv_context_t *ctx, const hetinv_noise_model_t *m) {
   if (m->size < HV_NOISE_MODEL_V1_SIZE) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "model->size is %zu; it must be at least %zu (use hetinv_noise_model_default)",

@@ -42,8 +42,7 @@ double hv_volume_lerp(double lo, double hi, double t) {
   return fmin(fmax(lo * (1.0 - t) + hi * t, lo), hi);
 }
 
-hetinv_result_t hv_volume_store(hetinv_medium_t *medium,
-                                double *const values[3]) {
+hetinv_result_t hv_volume_store(hetinv_medium_t *medium, double *const values[3]) {
   for (hetinv_param_t p = 0; p < HETINV_PARAM_COUNT; ++p) {
     hetinv_result_t r = hetinv_medium_set_grid(medium, p, values[p], medium->voxel_count);
     if (r != HETINV_SUCCESS) { /* a bug: the values were checked before */

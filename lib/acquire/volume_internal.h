@@ -26,7 +26,6 @@ static inline double hv_voxel_centre(double lo, double hi, int32_t n, int32_t i)
 
 /* Writes the three arrays (voxel_count values each) into the medium with
  * hetinv_medium_set_grid; the values must already be valid. */
-hetinv_result_t hv_volume_store(hetinv_medium_t *medium,
-                                double *const values[3]);
+hetinv_result_t hv_volume_store(hetinv_medium_t *medium, double *const values[3]);
 
 #endif

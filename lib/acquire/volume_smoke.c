@@ -30,8 +30,7 @@ HETINV_API void hetinv_smoke_spec_default(hetinv_smoke_spec_t *spec) {
                                 .seed = 0};
 }
 
-static hetinv_result_t check_spec(const hetinv_context_t *ctx,
-                                  const hetinv_smoke_spec_t *s) {
+static hetinv_result_t check_spec(const hetinv_context_t *ctx, const hetinv_smoke_spec_t *s) {
   if (s->size < HV_SMOKE_SPEC_V1_SIZE) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->size is %zu; it must be at least %zu (use hetinv_smoke_spec_default)",

@@ -40,8 +40,7 @@ hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx) {
 void hv_comm_context_release(hetinv_context_t *ctx) { (void)ctx; }
 
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
-                                  hetinv_result_t status, double **all,
-                                  size_t *all_count) {
+                                  hetinv_result_t status, double **all, size_t *all_count) {
   (void)data;
   (void)count;
   *all = NULL;
@@ -60,8 +59,7 @@ static bool mpi_usable(void) {
   return initialised && !finalised;
 }
 
-static hetinv_result_t mpi_fail(const hetinv_context_t *ctx, const char *call,
-                                int err) {
+static hetinv_result_t mpi_fail(const hetinv_context_t *ctx, const char *call, int err) {
   char text[MPI_MAX_ERROR_STRING];
   int len = 0;
   if (MPI_Error_string(err, text, &len) != MPI_SUCCESS) len = 0;
@@ -140,8 +138,7 @@ static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status
 }
 
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
-                                  hetinv_result_t status, double **all,
-                                  size_t *all_count) {
+                                  hetinv_result_t status, double **all, size_t *all_count) {
   *all = NULL;
   *all_count = 0;
   int ranks = ctx->rank_count;

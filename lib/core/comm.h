@@ -33,7 +33,6 @@ static inline void hv_comm_block(int64_t n, int32_t rank, int32_t ranks, int64_t
  * of the first failing rank: a failing rank keeps its own message, the
  * others record one naming the failing rank. */
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
-                                  hetinv_result_t status, double **all,
-                                  size_t *all_count);
+                                  hetinv_result_t status, double **all, size_t *all_count);
 
 #endif

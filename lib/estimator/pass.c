@@ -30,8 +30,7 @@ double hv_now_seconds(void) {
 }
 
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
-                              const hetinv_measurements_t *set, size_t count,
-                              hv_pass_t *pass) {
+                              const hetinv_measurements_t *set, size_t count, hv_pass_t *pass) {
   if (est == NULL) return HV_FAIL(NULL, HETINV_ERROR_NULL_ARGUMENT, "'estimator' is NULL");
   const hetinv_context_t *ctx = est->ctx;
   if (medium == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'medium' is NULL");

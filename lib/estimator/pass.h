@@ -26,8 +26,7 @@ typedef struct hv_pass {
 /* Validates (estimator, medium, set, count) and builds the pass; on failure
  * nothing needs releasing. */
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
-                              const hetinv_measurements_t *set, size_t count,
-                              hv_pass_t *pass);
+                              const hetinv_measurements_t *set, size_t count, hv_pass_t *pass);
 void hv_pass_end(hv_pass_t *pass);
 
 /* Traces batch b's photons [hv_batch_begin(b), hv_batch_begin(b+1)) of

@@ -60,8 +60,7 @@ static hetinv_result_t fail_exr(const exr_reader_t *rd, exr_result_t rv) {
     case EXR_ERR_OUT_OF_MEMORY:
       return HV_FAIL(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, "'%s': %s%s", rd->path, where, what);
     case EXR_ERR_FILE_ACCESS:
-      return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot read '%s': %s%s", rd->path, where,
-                     what);
+      return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot read '%s': %s%s", rd->path, where, what);
     case EXR_ERR_FEATURE_NOT_IMPLEMENTED:
       return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
                      "'%s' uses an unsupported feature: %s%s", rd->path, where, what);
@@ -111,13 +110,11 @@ static int64_t size_source(exr_const_context_t exr, void *user) {
 static hetinv_result_t open_file(exr_reader_t *rd) {
   rd->fd = open(rd->path, O_RDONLY | O_CLOEXEC);
   if (rd->fd < 0) {
-    return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot open '%s': %s", rd->path,
-                   strerror(errno));
+    return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot open '%s': %s", rd->path, strerror(errno));
   }
   struct stat st;
   if (fstat(rd->fd, &st) != 0) {
-    return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot stat '%s': %s", rd->path,
-                   strerror(errno));
+    return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot stat '%s': %s", rd->path, strerror(errno));
   }
   if (!S_ISREG(st.st_mode)) {
     return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "'%s' is not a regular file", rd->path);

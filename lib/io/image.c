@@ -18,8 +18,7 @@ bool hv_image_name_is_valid(const char *name) {
 }
 
 /* Records why @p name (a channel or attribute name) is invalid. */
-static hetinv_result_t fail_name(const hetinv_context_t *ctx, const char *what,
-                                 const char *name) {
+static hetinv_result_t fail_name(const hetinv_context_t *ctx, const char *what, const char *name) {
   size_t n = strlen(name);
   if (n == 0) return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "the %s is empty", what);
   if (n > HV_IMAGE_NAME_MAX) {
@@ -279,16 +278,14 @@ hetinv_result_t hv_image_store_attribute(hetinv_image_t *image, const char *name
   }
   if (value.name == NULL) {
     hv_free(ctx, value.string);
-    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate attribute \"%s\"",
-                   name);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate attribute \"%s\"", name);
   }
   image->attributes[image->attribute_count++] = value;
   return HETINV_SUCCESS;
 }
 
 /* Common checks of the three setters. */
-static hetinv_result_t check_attribute_name(const hetinv_image_t *image,
-                                            const char *name) {
+static hetinv_result_t check_attribute_name(const hetinv_image_t *image, const char *name) {
   if (image == NULL) return HV_FAIL(NULL, HETINV_ERROR_NULL_ARGUMENT, "'image' is NULL");
   if (name == NULL) return HV_FAIL(image->ctx, HETINV_ERROR_NULL_ARGUMENT, "'name' is NULL");
   if (!hv_image_name_is_valid(name)) return fail_name(image->ctx, "attribute name", name);
@@ -374,8 +371,7 @@ static hetinv_result_t lookup(const hetinv_image_t *image, const char *name,
   }
   int32_t i = find_attribute(image, name);
   if (i < 0) {
-    return HV_FAIL(image->ctx, HETINV_ERROR_OUT_OF_RANGE, "no attribute is called \"%s\"",
-                   name);
+    return HV_FAIL(image->ctx, HETINV_ERROR_OUT_OF_RANGE, "no attribute is called \"%s\"", name);
   }
   if (image->attributes[i].type != type) {
     return HV_FAIL(image->ctx, HETINV_ERROR_INVALID_ARGUMENT,

@@ -8,8 +8,7 @@
 #include "io/vol_format.h"
 #include "medium/medium_internal.h"
 
-static hetinv_result_t check_param(const hetinv_context_t *ctx,
-                                   hetinv_param_t param) {
+static hetinv_result_t check_param(const hetinv_context_t *ctx, hetinv_param_t param) {
   if (param >= 0 && param < HETINV_PARAM_COUNT) return HETINV_SUCCESS;
   return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_RANGE,
                  "param is %d; it must be HETINV_PARAM_SIGMA_A, _SIGMA_S or _G", (int)param);
