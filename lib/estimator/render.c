@@ -90,6 +90,7 @@ static void fill_stats(hetinv_estimator_t *est, const forward_t *f) {
     st->escaped_std_error[face] = sqrt(var[HV_STAT_ESCAPED + face]) / emitters;
   }
   st->truncated = total[HV_STAT_TRUNCATED] / norm;
+  st->truncated_paths = (uint64_t)total[HV_STAT_TRUNCATED_PATHS]; /* exact below 2^53 */
   st->seconds = hv_now_seconds() - pass->start_seconds;
   est->has_stats = true;
 }
