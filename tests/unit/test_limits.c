@@ -174,6 +174,19 @@ static void measurement_set_size_is_bounded(void **state) {
   hetinv_context_destroy(&ctx);
 }
 
+static void image_size_is_bounded(void **state) {
+  (void)state;
+  hetinv_context_t *ctx = make_context();
+  hetinv_image_t *img = NULL;
+  /* 2^15 x 2^15 pixels of 1 channel: 4 GB of floats. */
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_image_create(ctx, 32768, 32768, 1, &img));
+  assert_message_contains("32768 x 32768 pixels of 1 channels are 1073741824 floats; at most "
+                          "HETINV_MAX_IMAGE_VALUES (268435456)");
+  assert_null(img);
+  assert_true(largest < SMALL);
+  hetinv_context_destroy(&ctx);
+}
+
 static void optimizer_stage_count_is_bounded(void **state) {
   (void)state;
   hetinv_context_t *ctx = make_context();
@@ -270,6 +283,7 @@ int main(void) {
       cmocka_unit_test(emitter_sizes_are_bounded),
       cmocka_unit_test(pathlength_bin_count_is_bounded),
       cmocka_unit_test(measurement_set_size_is_bounded),
+      cmocka_unit_test(image_size_is_bounded),
       cmocka_unit_test(optimizer_stage_count_is_bounded),
       cmocka_unit_test(endless_paths_are_truncated_and_reported),
   };
