@@ -9,11 +9,12 @@
 
 /* The allocator of every context here: records the largest request, so a
  * test can show that a rejected call allocated nothing big. */
-static size_t largest;
+static size_t largest, allocations;
 
 static void *tracking_alloc(void *user, size_t size) {
   (void)user;
   if (size > largest) largest = size;
+  ++allocations; /* only counted while one thread allocates */
   return malloc(size);
 }
 
@@ -22,16 +23,18 @@ static void tracking_free(void *user, void *p) {
   free(p);
 }
 
-static hetinv_context_t *make_context(void) {
+static hetinv_context_t *make_threads_context(int32_t threads) {
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.alloc_fn = tracking_alloc;
   init.free_fn = tracking_free;
-  init.thread_count = 2;
+  init.thread_count = threads;
   hetinv_context_t *ctx = NULL;
   assert_ok(hetinv_context_create(&init, &ctx));
   largest = 0;
   return ctx;
 }
+
+static hetinv_context_t *make_context(void) { return make_threads_context(2); }
 
 /* Nothing bigger than this is allocated by a rejected call. */
 #define SMALL ((size_t)1 << 16)
@@ -275,6 +278,47 @@ static void endless_paths_are_truncated_and_reported(void **state) {
   hetinv_context_destroy(&ctx);
 }
 
+/* Each render thread holds a tally as large as the set: a render never runs
+ * (nor allocates for) more threads than it has work items (emitters x
+ * batches), whatever the context's thread count. */
+static size_t render_allocations(int32_t threads) {
+  hetinv_context_t *ctx = make_threads_context(threads);
+  hetinv_medium_t *m = make_medium(ctx);
+  hetinv_emitter_t *beam = NULL;
+  hetinv_sensor_t *camera = NULL;
+  hetinv_pathlength_t *steady = NULL;
+  hetinv_measurements_t *set = NULL;
+  assert_ok(hetinv_emitter_create_ideal(m, (double[]){0.5, 0.5, -1}, (double[]){0, 0, 1}, &beam));
+  assert_ok(hetinv_sensor_create_orthographic(m, HETINV_FACE_Z_MIN, (double[]){0, 0, -1}, (double[]){0, 0},
+                                              (double[]){0.25, 0.25}, 4, 4, &camera));
+  assert_ok(hetinv_pathlength_create_steady(ctx, &steady));
+  assert_ok(hetinv_measurements_create(ctx, &set));
+  assert_ok(hetinv_measurements_add(set, beam, camera, steady, NULL));
+  hetinv_estimator_t *est = NULL;
+  assert_ok(hetinv_estimator_create(ctx, &est));
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, 100));
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2)); /* 2 work items */
+  double values[16];
+  allocations = 0;
+  assert_ok(hetinv_estimator_render(est, m, set, values, NULL, NULL, 16));
+  size_t n = allocations;
+  hetinv_estimator_destroy(&est);
+  hetinv_measurements_destroy(&set);
+  hetinv_pathlength_destroy(&steady);
+  hetinv_sensor_destroy(&camera);
+  hetinv_emitter_destroy(&beam);
+  hetinv_medium_destroy(&m);
+  hetinv_context_destroy(&ctx);
+  return n;
+}
+
+static void render_threads_are_bounded_by_work_items(void **state) {
+  (void)state;
+  size_t two = render_allocations(2), many = render_allocations(HETINV_MAX_THREADS);
+  printf("render allocations: %zu with 2 threads, %zu with %d\n", two, many, HETINV_MAX_THREADS);
+  assert_true(many == two);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(thread_count_is_bounded),
@@ -286,6 +330,7 @@ int main(void) {
       cmocka_unit_test(image_size_is_bounded),
       cmocka_unit_test(optimizer_stage_count_is_bounded),
       cmocka_unit_test(endless_paths_are_truncated_and_reported),
+      cmocka_unit_test(render_threads_are_bounded_by_work_items),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
