@@ -96,7 +96,11 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_layerwise_stages(hetinv_optimize
   if (!(layer_thickness > 0.0) || !isfinite(layer_thickness)) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "layer_thickness is %g; it must be > 0", layer_thickness);
   }
-  if (layers < 1) return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "layers is %d; it must be >= 1", (int)layers);
+  if (layers < 1 || layers > HETINV_MAX_STAGES - optimizer->stage_count) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "layers is %d; it must be >= 1 and, with the %d stages already there, at most "
+                   "HETINV_MAX_STAGES (%d)", (int)layers, (int)optimizer->stage_count, HETINV_MAX_STAGES);
+  }
   if (iterations < 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "iterations is %d; it must be >= 0", (int)iterations);
   }

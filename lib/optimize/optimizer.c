@@ -199,6 +199,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
   if (optimizer->started) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "cannot add a stage: the run has started");
   }
+  if (optimizer->stage_count >= HETINV_MAX_STAGES) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "the schedule already has %d stages, HETINV_MAX_STAGES", (int)optimizer->stage_count);
+  }
   if (optimizer->stage_count == optimizer->stage_capacity) {
     int32_t cap = optimizer->stage_capacity ? 2 * optimizer->stage_capacity : 4;
     hv_stage_t *grown = hv_calloc(ctx, (size_t)cap, sizeof *grown);

@@ -243,6 +243,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
     if (!(w > 0.0)) break; /* a purely absorbing voxel */
     if (tr->max_scattering > 0 && scatterings > tr->max_scattering) {
       tally->stats[HV_STAT_TRUNCATED] += w;
+      tally->stats[HV_STAT_TRUNCATED_PATHS] += 1.0;
       break;
     }
     if (plog) {

@@ -17,7 +17,8 @@ enum hv_stat {
   HV_STAT_ABSORBED = 1,
   HV_STAT_ESCAPED = 2, /* 6 slots, one per face */
   HV_STAT_TRUNCATED = 8,
-  HV_STAT_COUNT = 9
+  HV_STAT_TRUNCATED_PATHS = 9, /* a count of paths, not a power */
+  HV_STAT_COUNT = 10
 };
 
 typedef struct hv_tracer {
