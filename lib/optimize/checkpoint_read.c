@@ -207,11 +207,12 @@ static hetinv_result_t check_position(const reader_t *rd, const hetinv_optimizer
   return HETINV_SUCCESS;
 }
 
-/* Entries inside the box of the stage (NaN is not). */
+/* Entries finite and inside the box of the stage (NaN is not; an
+ * unbounded side of the box does not admit an infinity). */
 static hetinv_result_t check_in_box(const reader_t *rd, const hetinv_optimizer_t *opt, const double *v,
                                     const char *what, int32_t slot) {
   for (size_t i = 0; i < opt->k; ++i) {
-    if (!(v[i] >= opt->lo_k[i] && v[i] <= opt->hi_k[i])) {
+    if (!(isfinite(v[i]) && v[i] >= opt->lo_k[i] && v[i] <= opt->hi_k[i])) {
       char where[64] = "";
       if (slot >= 0) snprintf(where, sizeof where, " (iterate %d of the averaging ring)", (int)slot);
       return corrupt(rd, "%s[%zu]%s is %.17g; its bounds are [%.17g, %.17g]", what, i, where, v[i], opt->lo_k[i],

@@ -1495,6 +1495,29 @@ static void forged_checkpoints_are_refused(void **state) {
     assert_message_contains(seven.what);
   }
   hetinv_optimizer_destroy(&opt);
+
+  /* With σs in [1, ∞), π = ∞ is inside the bounds but not a value. */
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, Inf));
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  st.calls = 0;
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_ok(hetinv_optimizer_save(opt, good));
+  hetinv_optimizer_destroy(&opt);
+  free(data);
+  data = slurp(good, &len);
+  const forgery_t infinite = {"pi[0] is inf; its bounds are [1, inf]", {&l.pi}, true, 0, Inf};
+  write_forged(bad, data, len, copy, &infinite);
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, Inf));
+  hetinv_result_t r = hetinv_optimizer_resume(opt, bad);
+  if (r != HETINV_ERROR_CORRUPT_FILE) {
+    print_error("forged '%s': resume returned %s\n", infinite.what, hetinv_result_name(r));
+    ++failures;
+  } else {
+    assert_message_contains(infinite.what);
+  }
+  hetinv_optimizer_destroy(&opt);
   free(copy);
   free(data);
   ht_tmpdir_remove();
