@@ -318,7 +318,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optim
  * schedule, the file's exact length for them, π and the averaged iterates
  * inside the bounds, the method's accumulators finite (and ≥ 0 where they
  * are means of squares), losses ≥ 0, the estimator's tunables within their
- * bounds, the base medium's values (in stage 0, the initial medium's).
+ * bounds, the base medium's values (the initial medium's where no earlier
+ * stage frees the parameter, inside its bounds where one does).
  * @param optimizer the optimizer; its run must not have started.
  * @param path the checkpoint: a regular file, no larger than a checkpoint
  *        of this configuration can be.

@@ -11,6 +11,7 @@
  * the limit, and leaves the optimizer as it was. */
 #include <errno.h>
 #include <fcntl.h>
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -305,9 +306,38 @@ static hetinv_result_t read_losses(reader_t *rd, hetinv_optimizer_t *opt, uint64
   return HETINV_SUCCESS;
 }
 
-/* The base medium: the initial medium's geometry with the values of the
- * stages before this one, each in its parameter's domain; in stage 0 no
- * stage has changed it, so it is the initial medium. */
+/* The base medium: the initial medium with the results of the stages
+ * before this one applied. A parameter no earlier stage frees is the
+ * initial medium's, bit for bit; one that an earlier stage frees holds
+ * interpolations of that stage's averaged π, so it is inside the bounds
+ * (up to the rounding of the up to 8 interpolation terms). Every value is
+ * in its parameter's domain. */
+static hetinv_result_t check_base_grid(const reader_t *rd, const hetinv_optimizer_t *opt, hetinv_param_t p,
+                                       const double *grid, size_t v) {
+  uint32_t freed = 0;
+  for (int32_t s = 0; s < opt->stage; ++s) freed |= hetinv_param_map_free_mask(opt->stages[s].map);
+  const double *initial = hetinv_medium_grid(opt->initial, p);
+  double lo = opt->lo[p], hi = opt->hi[p];
+  double slack = 16.0 * DBL_EPSILON * fmax(isfinite(lo) ? fabs(lo) : 0.0, isfinite(hi) ? fabs(hi) : 0.0);
+  for (size_t i = 0; i < v; ++i) {
+    const char *rule = hv_medium_value_rule(p, grid[i]);
+    if (rule != NULL) {
+      return corrupt(rd, "the base medium's %s of voxel %zu is %g; %s", hetinv_param_name(p), i, grid[i], rule);
+    }
+    if (!(freed & (1u << p)) && memcmp(&grid[i], &initial[i], sizeof(double)) != 0) {
+      return corrupt(rd,
+                     "the base medium's %s of voxel %zu is %.17g in stage %d; no earlier stage frees %s, and "
+                     "the initial medium's is %.17g",
+                     hetinv_param_name(p), i, grid[i], (int)opt->stage, hetinv_param_name(p), initial[i]);
+    }
+    if ((freed & (1u << p)) && !(grid[i] >= lo - slack && grid[i] <= hi + slack)) {
+      return corrupt(rd, "the base medium's %s of voxel %zu is %.17g; its bounds are [%.17g, %.17g]",
+                     hetinv_param_name(p), i, grid[i], lo, hi);
+    }
+  }
+  return HETINV_SUCCESS;
+}
+
 static hetinv_result_t read_base(reader_t *rd, const hetinv_optimizer_t *opt, hetinv_medium_t **out) {
   *out = NULL;
   hetinv_medium_t *base = NULL;
@@ -318,16 +348,7 @@ static hetinv_result_t read_base(reader_t *rd, const hetinv_optimizer_t *opt, he
   if (grid == NULL) r = hv_fail(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, rd->func, "cannot hold the base medium");
   for (int p = 0; r == HETINV_SUCCESS && p < HETINV_PARAM_COUNT; ++p) {
     get(rd, grid, v * sizeof(double));
-    const double *initial = hetinv_medium_grid(opt->initial, p);
-    for (size_t i = 0; r == HETINV_SUCCESS && i < v; ++i) {
-      const char *rule = hv_medium_value_rule(p, grid[i]);
-      if (rule != NULL) {
-        r = corrupt(rd, "the base medium's %s of voxel %zu is %g; %s", hetinv_param_name(p), i, grid[i], rule);
-      } else if (opt->stage == 0 && memcmp(&grid[i], &initial[i], sizeof(double)) != 0) {
-        r = corrupt(rd, "the base medium's %s of voxel %zu is %.17g in stage 0; the initial medium's is %.17g",
-                    hetinv_param_name(p), i, grid[i], initial[i]);
-      }
-    }
+    r = check_base_grid(rd, opt, p, grid, v);
     if (r == HETINV_SUCCESS) r = hetinv_medium_set_grid(base, p, grid, v);
   }
   hv_free(rd->ctx, grid);

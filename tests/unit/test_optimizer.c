@@ -1428,7 +1428,7 @@ static void forged_checkpoints_are_refused(void **state) {
   double photons = 0;
   memcpy(&photons, data + l.est + 8 * HETINV_ESTIMATOR_PHOTONS, 8);
   assert_true(photons == 100);
-  size_t est_photons = l.est + 8 * HETINV_ESTIMATOR_PHOTONS, sigma_s1 = l.grids + 4 * 8 + 8;
+  size_t est_photons = l.est + 8 * HETINV_ESTIMATOR_PHOTONS, sigma_s1 = l.grids + 4 * 8 + 8, sigma_a1 = l.grids + 8;
   size_t ring1 = l.ring + 8, ring2 = l.ring + 16;
 
   const forgery_t forged[] = {
@@ -1458,7 +1458,8 @@ static void forged_checkpoints_are_refused(void **state) {
       {"loss 0 is -1", {&l.losses}, true, 0, -1},
       {"loss 0 is nan", {&l.losses}, true, 0, NaN},
       {"sigma_s of voxel 1 is -1", {&sigma_s1}, true, 0, -1},
-      {"sigma_s of voxel 1 is 7 in stage 0; the initial medium's is 8", {&sigma_s1}, true, 0, 7},
+      {"sigma_s of voxel 1 is 7 in stage 0; no earlier stage frees sigma_s, and the initial medium's is 8", {&sigma_s1}, true, 0, 7},
+      {"sigma_a of voxel 1 is 1e+223", {&sigma_a1}, true, 0, 1e223},
       {"HETINV_ESTIMATOR_PHOTONS is 0", {&est_photons}, true, 0, 0},
       {"HETINV_ESTIMATOR_PHOTONS is nan", {&est_photons}, true, 0, NaN},
   };
@@ -1494,6 +1495,37 @@ static void forged_checkpoints_are_refused(void **state) {
   } else {
     assert_message_contains(seven.what);
   }
+  hetinv_optimizer_destroy(&opt);
+
+  /* In stage 1 of two (coarse, then per voxel), σs was freed by stage 0:
+   * inside its bounds; σa was not: the initial medium's. */
+  setup_t two = two_stage_setup(p);
+  opt = make_optimizer(p, &two);
+  st = (stopper_t){.stop_at = 6};
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_ok(hetinv_optimizer_save(opt, good));
+  hetinv_optimizer_destroy(&opt);
+  free(data);
+  data = slurp(good, &len);
+  free(copy);
+  copy = malloc(len); /* a larger file: 4 entries */
+  size_t grids = len - 8 - 3 * 4 * 8;
+  size_t two_sigma_a0 = grids, two_sigma_s2 = grids + 4 * 8 + 2 * 8;
+  double v = 0;
+  memcpy(&v, data + two_sigma_s2, 8);
+  assert_true(v >= SIGMA_LO && v <= SIGMA_HI && v != START_SIGMA_S); /* the layout is as read here */
+  const forgery_t stage1[] = {
+      {"sigma_s of voxel 2 is 130442; its bounds are [1, 10]", {&two_sigma_s2}, true, 0, 130442},
+      {"sigma_s of voxel 2 is 0.5; its bounds are [1, 10]", {&two_sigma_s2}, true, 0, 0.5},
+      {"sigma_a of voxel 0 is 0.5 in stage 1; no earlier stage frees sigma_a", {&two_sigma_a0}, true, 0, 0.5},
+  };
+  for (size_t i = 0; i < sizeof stage1 / sizeof stage1[0]; ++i) {
+    write_forged(bad, data, len, copy, &stage1[i]);
+    failures += !refused_field(p, &two, bad, stage1[i].what);
+  }
+  opt = make_optimizer(p, &two);
+  assert_ok(hetinv_optimizer_resume(opt, good));
   hetinv_optimizer_destroy(&opt);
 
   /* With σs in [1, ∞), π = ∞ is inside the bounds but not a value. */
