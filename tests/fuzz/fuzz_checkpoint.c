@@ -16,7 +16,8 @@
  * regenerate them when the checkpoint format or the fingerprint changes
  * (the test fuzz_checkpoint_seeds runs them with
  * HETINV_FUZZ_CHECKPOINT_EXPECT_VALID set, which makes a refused input
- * fail, so a stale corpus is noticed). */
+ * fail, so a stale corpus is noticed). corpus/checkpoint/regression_*
+ * are the fuzzer's findings, kept so that the smoke run retries them. */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
