@@ -1556,6 +1556,35 @@ static void forged_checkpoints_are_refused(void **state) {
   assert_int_equal(failures, 0);
 }
 
+/* The base-medium check does not refuse a real run: after a coarse stage
+ * that interpolates (2 x 1 x 2 cells over 3 x 1 x 3 voxels), a checkpoint of
+ * the next stage resumes. */
+static void interpolated_base_media_resume(void **state) {
+  (void)state;
+  problem_t p;
+  problem_init(&p, 5, 3, 3, 2, false);
+  ht_tmpdir_create("optimizer-interpolated");
+  char path[1024];
+  snprintf(path, sizeof path, "%s", ht_path("stage1.ckpt"));
+  hetinv_param_map_t *coarse = NULL;
+  assert_ok(hetinv_param_map_create_coarse(p.initial, (int32_t[]){2, 1, 2}, SS, &coarse));
+  setup_t s = {.stages = 2, .maps = {coarse, p.identity}, .iterations = {3, 3}, .method = HETINV_METHOD_ADADELTA,
+               .minibatch = 0, .window = 3, .interval = 1};
+  hetinv_optimizer_t *opt = make_optimizer(&p, &s);
+  stopper_t st = {.stop_at = 4};
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  assert_ok(hetinv_optimizer_run(opt, p.est, NULL));
+  assert_int_equal(st.last.stage, 1);
+  assert_ok(hetinv_optimizer_save(opt, path));
+  hetinv_optimizer_destroy(&opt);
+  opt = make_optimizer(&p, &s);
+  assert_ok(hetinv_optimizer_resume(opt, path));
+  hetinv_optimizer_destroy(&opt);
+  hetinv_param_map_destroy(&coarse);
+  ht_tmpdir_remove();
+  problem_release(&p);
+}
+
 /* Only regular files are read, and none larger than the configured run
  * can write. */
 static void only_regular_checkpoint_files_are_read(void **state) {
@@ -1802,6 +1831,7 @@ int main(void) {
       cmocka_unit_test(damaged_checkpoints_are_refused),
       cmocka_unit_test(forged_checkpoints_are_refused),
       cmocka_unit_test(only_regular_checkpoint_files_are_read),
+      cmocka_unit_test(interpolated_base_media_resume),
       cmocka_unit_test(layerwise_errors),
       cmocka_unit_test(layerwise_stages_free_one_layer_each),
       cmocka_unit_test(null_arguments_are_refused),
