@@ -317,10 +317,24 @@ HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optim
  * @brief Restore the state of a checkpoint into an optimizer configured as
  *        the one that wrote it (same set, initial medium, tunables, bounds
  *        and stages); the next hetinv_optimizer_run() continues that run.
+ *
+ * The checkpoint is validated field by field against the optimizer's
+ * configuration, not only by its checksum (which detects damage, not a
+ * stale or crafted file): the stage and iteration counts within the
+ * schedule, the file's exact length for them, π and the averaged iterates
+ * inside the bounds, the method's accumulators finite (and ≥ 0 where they
+ * are means of squares), losses ≥ 0, the estimator's tunables within their
+ * bounds, the base medium's values (the initial medium's where no earlier
+ * stage frees the parameter, inside its bounds where one does).
  * @param optimizer the optimizer; its run must not have started.
- * @param path the checkpoint.
- * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO;
- *         HETINV_ERROR_CORRUPT_FILE (bad magic, truncated, checksum);
+ * @param path the checkpoint: a regular file, no larger than a checkpoint
+ *        of this configuration can be.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_IO (cannot open or read, or not a regular file);
+ *         HETINV_ERROR_CORRUPT_FILE (bad magic, truncated, checksum, too
+ *         large, or a field the configured run cannot have: the message
+ *         names the field, its value and the limit);
+ *         HETINV_ERROR_UNSUPPORTED (another format version or byte order);
  *         HETINV_ERROR_INVALID_ARGUMENT (written by a differently configured
  *         optimizer; the message names what differs);
  *         HETINV_ERROR_INVALID_STATE (run started); HETINV_ERROR_OUT_OF_MEMORY.

@@ -43,7 +43,7 @@ static void voxel_layers(const hetinv_medium_t *m, const bool lit[6], double h, 
     for (int32_t y = 0; y < m->dims[1]; ++y) {
       for (int32_t x = 0; x < m->dims[0]; ++x, ++v) {
         int32_t idx[3] = {x, y, z};
-        double depth = INFINITY;
+        double depth = (double)INFINITY;
         for (int f = 0; f < 6; ++f) {
           if (!lit[f]) continue;
           int a = hv_face_axis(f);

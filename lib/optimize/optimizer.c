@@ -52,7 +52,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
   opt->set = set;
   for (int p = 0; p < HETINV_OPTIMIZER_PARAM_COUNT_; ++p) opt->param[p] = PARAMS[p].def;
   opt->lo[HETINV_PARAM_SIGMA_A] = opt->lo[HETINV_PARAM_SIGMA_S] = 0.0;
-  opt->hi[HETINV_PARAM_SIGMA_A] = opt->hi[HETINV_PARAM_SIGMA_S] = INFINITY;
+  opt->hi[HETINV_PARAM_SIGMA_A] = opt->hi[HETINV_PARAM_SIGMA_S] = (double)INFINITY;
   opt->lo[HETINV_PARAM_G] = -0.99;
   opt->hi[HETINV_PARAM_G] = 0.99;
   hetinv_result_t r = hetinv_medium_clone(initial, &opt->initial);
