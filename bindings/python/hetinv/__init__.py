@@ -21,7 +21,7 @@ from ._errors import (
     UnsupportedError,
     error_for,
 )
-from ._arrays import numpy_available, numpy_enabled, use_numpy
+from ._arrays import flat, numpy_available, numpy_enabled, use_numpy
 from ._names import (
     FACE_X_MAX, FACE_X_MIN, FACE_Y_MAX, FACE_Y_MIN, FACE_Z_MAX, FACE_Z_MIN,
     FREE_ALL, FREE_G, FREE_SIGMA_A, FREE_SIGMA_S,
