@@ -39,7 +39,7 @@ from .estimator import Estimator, Gradient, LossGradient, Render, estimator_para
 from .optimizer import Optimizer, Progress, optimizer_param_bounds
 from .acquire import Noisy, apply_noise
 
-__version__ = "0.1.0"
+__version__ = "0.1.0"  # the library version this package is written for (pyproject.toml reads it)
 
 
 def version():

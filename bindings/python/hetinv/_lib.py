@@ -176,7 +176,7 @@ def _pkg_config_libdir():
     except (OSError, subprocess.SubprocessError):
         return None
     libdir = out.stdout.decode(errors="replace").strip()
-    return libdir or None
+    return os.path.normpath(libdir) if libdir else None  # hetinv.pc says ${pcfiledir}/../..
 
 
 def _candidates():
