@@ -235,8 +235,13 @@ class Shapes(unittest.TestCase):
         self.assertEqual(ms.row(r.values, 2).tolist(), r.row(2).tolist())
         with self.assertRaises(ValueError):
             r.row(0, "nope")
-        with self.assertRaises(IndexError):
-            r.row(3)
+        for bad in (3, -1):
+            with self.assertRaises(IndexError):
+                r.row(bad)
+            with self.assertRaises(IndexError):  # OutOfRangeError is an IndexError
+                ms.row(r.values, bad)
+        with self.assertRaises(ValueError):
+            ms.row(r.values[:30], 0)
 
 
 @unittest.skipIf(np is None, "numpy is not importable")

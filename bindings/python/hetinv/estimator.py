@@ -3,7 +3,7 @@ import ctypes
 from collections import namedtuple
 
 from . import _arrays
-from ._args import number
+from ._args import integer, number
 from ._errors import check
 from ._handle import Handle, handle_arg, pinned
 from ._lib import lib
@@ -25,6 +25,9 @@ class Render(namedtuple("Render", "values std_errors ballistic")):
         numpy a view of shape (bins, height, width), else a flat slice."""
         if which not in self._fields:
             raise ValueError("which: expected one of %s, got %r" % (self._fields, which))
+        row = integer(row, "row")
+        if not 0 <= row < len(self._rows):
+            raise IndexError("row %d: the rendered set has %d rows" % (row, len(self._rows)))
         offset, shape = self._rows[row]
         count = shape[0] * shape[1] * shape[2]
         return _arrays.shaped(getattr(self, which)[offset:offset + count], shape)

@@ -75,27 +75,29 @@ class Measurements(Handle):
                                           ctypes.byref(bins)))
         return off.value, px.value, bins.value
 
-    def row_shape(self, row):
-        """(bins, height, width) of a row: the numpy shape of its values, so
-        that value [b, j, i] is pixel (i, j) (index j·width + i) in bin b."""
+    def _offset_shape(self, row):
         offset, pixels, bins = self.layout(row)
         width, height = self._sizes[row]
         if width * height != pixels:  # cannot happen: rows are added through add()
             raise RuntimeError("row %d: sensor %d x %d, layout %d pixels" % (row, width, height,
                                                                                pixels))
-        return bins, height, width
+        return offset, (bins, height, width)
+
+    def row_shape(self, row):
+        """(bins, height, width) of a row: the numpy shape of its values, so
+        that value [b, j, i] is pixel (i, j) (index j·width + i) in bin b."""
+        return self._offset_shape(row)[1]
 
     def _row_layouts(self):
         """[(offset, (bins, height, width))] of every row."""
-        return [(self.layout(r)[0], self.row_shape(r)) for r in range(self.row_count)]
+        return [self._offset_shape(r) for r in range(self.row_count)]
 
     def row(self, values, row):
         """Row `row` of `values` (value_count items, e.g. self.values or a
         render's values): with numpy a view of shape row_shape(row), else a
         flat slice."""
         values = _arrays.flat(values)
-        offset = self.layout(row)[0]
-        shape = self.row_shape(row)
+        offset, shape = self._offset_shape(row)
         if len(values) != self.value_count:
             raise ValueError("values: expected %d values, got %d" % (self.value_count,
                                                                    len(values)))
