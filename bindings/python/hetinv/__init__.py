@@ -2,9 +2,12 @@
 scattering with a differentiable Monte Carlo renderer.
 
 The library is found through the HETINV_LIBRARY environment variable (a
-path), else ctypes.util.find_library("hetinv"), else "libhetinv.so.0".
-Arrays come back as numpy arrays when numpy is importable, else as
-array.array; any sequence of numbers is accepted as input.
+path), else ctypes.util.find_library("hetinv"), else pkg-config's libdir
+of hetinv, else the usual prefixes, else "libhetinv.so.0" through the
+dynamic loader (see _lib.py; the ImportError lists where it looked).
+Arrays come back as numpy arrays when numpy is importable, shaped like
+their grid (medium grids (nz, ny, nx), π and gradients ParamMap.shape),
+else as flat array.array; any sequence of numbers is accepted as input.
 """
 from ._lib import lib as _clib, path as library_path
 from ._errors import (
