@@ -11,7 +11,6 @@ from ._names import ESTIMATOR_PARAMS, lookup
 from ._structs import RenderStats
 
 
-
 class Render(namedtuple("Render", "values std_errors ballistic")):
     """What Estimator.render returns. values, std_errors and ballistic are
     flat, one item per value of the measurement set (rows one after the
