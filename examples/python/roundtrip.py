@@ -35,28 +35,29 @@ import numpy as np
 
 import hetinv
 
-n = 4 if quick else 12                      # voxels along x and z (one along y)
-photons = 500 if quick else 20000           # per beam and render
-iterations = (3, 3) if quick else (30, 60)  # coarse stage, fine stage
-beams = 2 if quick else 6
+n = 4 if quick else 8                       # voxels along x and z (one along y)
+photons = 500 if quick else 2000            # per beam and render while reconstructing
+iterations = (3, 3) if quick else (40, 80)  # coarse stage, fine stage
+beams = 2 if quick else 4                   # per face
 os.makedirs(out, exist_ok=True)
 ctx = hetinv.Context(seed=2016, threads=0)  # seeded: the same numbers every run
 
-# 1. The truth: a 10 mm x-z cross-section, sigma_s a random mixture of
+# 1. The truth: a 1 mm x-z cross-section, sigma_s a random mixture of
 #    Gaussian blobs in [2, 8] /mm, constant along y; sigma_a and g known.
-truth = hetinv.Medium(ctx, (0, 0, 0), (10, 10, 10), (n, 1, n)).set_ior(1.3, 1.0)
-truth.fill_gaussian_mixture(seed=4, constant_axis=1, lo=(0.05, 2.0, 0.8), hi=(0.05, 8.0, 0.8))
+truth = hetinv.Medium(ctx, (0, 0, 0), (1, 1, 1), (n, 1, n)).set_ior(1.3, 1.0)
+truth.fill_gaussian_mixture(seed=4, constant_axis=1, lo=(0.05, 2.0, 0.5), hi=(0.05, 8.0, 0.5))
 truth.commit()
 sigma_true = truth.grid("sigma_s")          # shape (nz, ny, nx) = (n, 1, n): [iz, iy, ix]
 
-# 2. Noisy measurements: pencil beams into the top face (z max) at several x,
-#    each seen by a camera of n x n pixels on the section's face (y max).
-camera = hetinv.Sensor.orthographic(truth, "y_max", (0, 1, 0), (0, 0), (10 / n, 10 / n), n, n)
+# 2. Noisy measurements: pencil beams into the top face (z max) and the
+#    left face (x min), each seen by a camera of n x n pixels on the
+#    section's face (y max). The truth is rendered with 10x the photons.
+camera = hetinv.Sensor.orthographic(truth, "y_max", (0, 1, 0), (0, 0), (1 / n, 1 / n), n, n)
 measurements = hetinv.Measurements(ctx)
-for x in (np.arange(beams) + 0.5) * 10 / beams:
-    measurements.add(hetinv.Emitter.ideal(truth, (x, 5, 10.5), (0, 0, -1)), camera)
-estimator = hetinv.Estimator(ctx, photons=photons)
-clean = estimator.render(truth, measurements)
+for t in (np.arange(beams) + 0.5) / beams:
+    measurements.add(hetinv.Emitter.ideal(truth, (t, 0.5, 1.05), (0, 0, -1)), camera)
+    measurements.add(hetinv.Emitter.ideal(truth, (-0.05, 0.5, t), (1, 0, 0)), camera)
+clean = hetinv.Estimator(ctx, photons=10 * photons).render(truth, measurements)
 print("row 0 is an image of shape", clean.row(0).shape)     # (bins, height, width)
 noisy = hetinv.apply_noise(ctx, clean.values, seed=1, read_noise=5.0)
 
@@ -68,18 +69,20 @@ np.savez(os.path.join(out, "measurements.npz"),
 for p in ("sigma_a", "sigma_s", "g"):
     truth.write_vol(p, os.path.join(out, "truth_%s.vol" % p))
 data = np.load(os.path.join(out, "measurements.npz"))
-values, errors = data["values"], data["std_errors"]           # (beams, 1, n, n) each
+values, errors = data["values"], data["std_errors"]           # (rows, 1, n, n) each
 measurements.set_values(values, errors)                       # any shape, read in C order
 measurements.set_weights(1.0 / np.maximum(errors, 1e-3 * values.max()) ** 2)
 
 # 4. Reconstruct sigma_s from a homogeneous guess: ADADELTA on a half
-#    resolution grid, then per voxel.
+#    resolution grid, then per voxel; gradients come shaped like the map.
 initial = truth.clone().set_grid("sigma_s", np.full(truth.shape, 5.0)).commit()
 coarse = hetinv.ParamMap.coarse(truth, (max(1, n // 2), 1, max(1, n // 2)), "sigma_s")
 fine = hetinv.ParamMap.identity(truth, "sigma_s")
+estimator = hetinv.Estimator(ctx, photons=photons)
 lg = estimator.loss_gradient(initial, measurements, fine)
 print("loss %.4g at the guess; dloss/dsigma_s has shape %s" % (lg.loss, lg.grad.shape))
-optimizer = hetinv.Optimizer(ctx, measurements, initial, method="adadelta", average_window=5)
+optimizer = hetinv.Optimizer(ctx, measurements, initial, method="adadelta", epsilon=0.003,
+                             average_window=10)
 optimizer.set_bounds("sigma_s", 1.0, 10.0)
 optimizer.add_stage(coarse, iterations=iterations[0])
 optimizer.add_stage(fine, iterations=iterations[1])
