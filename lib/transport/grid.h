@@ -12,14 +12,29 @@
 #include "hetinv/sampling.h"
 #include "transport/path_log.h"
 
+/* What the walk reads of one voxel, packed in one record (32 bytes, two
+ * per cache line): a crossing reads σt, a collision 1/σt, a scattering the
+ * albedo and g, all from the line the crossing already loaded. Doubles
+ * throughout: the medium's own values, no rounding of the physics. */
+typedef struct hv_voxel {
+  double sigma_t;     /* σa + σs */
+  double inv_sigma_t; /* 1/σt (inf where σt = 0) */
+  double albedo;      /* σs / σt (0 where σt = 0) */
+  double g;
+} hv_voxel_t;
+
 typedef struct hv_grid {
   double lo[3], hi[3];
   double h[3], inv_h[3]; /* voxel size and its inverse */
   int32_t n[3];
   int64_t stride[3];     /* linear-index step per axis: 1, nx, nx·ny */
-  double *sigma_t;       /* σa + σs */
-  double *albedo;        /* σs / σt (0 where σt = 0) */
-  const double *g;       /* the medium's own array */
+  hv_voxel_t *voxel;     /* in linear voxel order */
+  /* Coordinates of the voxel faces along each axis, face[a][i] = lo + i·h
+   * for i = 0..n[a]: the walk's voxel bounds, one load instead of a
+   * conversion, a multiplication and an addition, and the same value
+   * wherever a face is needed. */
+  const double *face[3];
+  double *face_storage;
   const double *sigma_s; /* the medium's own array (gradient scores need σs) */
   double eta, eta_out;
   const hetinv_context_t *ctx;
@@ -69,6 +84,7 @@ static inline int64_t hv_vertex_voxel(const hv_grid_t *g, const hv_ray_t *r) {
 /* Amanatides–Woo stepping state of a ray in its current voxel. */
 typedef struct hv_dda {
   double t_next[3], t_delta[3];
+  int64_t k_step[3]; /* linear-index step along each axis: ±stride or 0 */
   int32_t step[3];
 } hv_dda_t;
 
@@ -76,37 +92,34 @@ static inline void hv_dda_init(const hv_grid_t *g, const hv_ray_t *r, hv_dda_t *
   for (int a = 0; a < 3; ++a) {
     double d = r->d[a];
     double inv = 1.0 / d; /* ±inf for d = 0 */
-    int pos = d > 0.0;
-    s->step[a] = pos ? 1 : (d < 0.0 ? -1 : 0);
-    double face = g->lo[a] + (double)(r->v[a] + pos) * g->h[a];
-    double t = (face - r->p[a]) * inv;
+    int pos = d > 0.0, neg = d < 0.0;
+    s->step[a] = pos - neg;
+    s->k_step[a] = (pos - neg) * g->stride[a];
+    double t = (g->face[a][r->v[a] + pos] - r->p[a]) * inv;
     t = d == 0.0 ? HUGE_VAL : t;
     s->t_next[a] = t < 0.0 ? 0.0 : t; /* rounding on a voxel face */
     s->t_delta[a] = g->h[a] * fabs(inv);
   }
 }
 
-static inline double hv_dda_tmin(const hv_dda_t *s) {
-  double m = s->t_next[0] < s->t_next[1] ? s->t_next[0] : s->t_next[1];
-  return m < s->t_next[2] ? m : s->t_next[2];
-}
-
+/* The axis whose face the ray reaches first; written for conditional moves,
+ * not branches (which axis comes next is a coin toss to the predictor). */
 static inline int hv_dda_axis(const hv_dda_t *s) {
-  int a = s->t_next[0] < s->t_next[1] ? 0 : 1;
-  return s->t_next[a] < s->t_next[2] ? a : 2;
+  int a = s->t_next[1] <= s->t_next[0];
+  return s->t_next[2] <= s->t_next[a] ? 2 : a;
 }
 
 /* Steps into the next voxel along axis a at distance t; returns 0 and puts
  * r->p on the boundary (face in *face) if that leaves the box. */
 static inline int hv_dda_advance(const hv_grid_t *g, hv_ray_t *r, hv_dda_t *s, int a, double t,
                                  hetinv_face_t *face) {
-  r->v[a] += s->step[a];
-  if (r->v[a] >= 0 && r->v[a] < g->n[a]) {
-    r->k += s->step[a] * g->stride[a];
+  int32_t v = r->v[a] + s->step[a];
+  if ((uint32_t)v < (uint32_t)g->n[a]) {
+    r->v[a] = v;
+    r->k += s->k_step[a];
     s->t_next[a] += s->t_delta[a];
     return 1;
   }
-  r->v[a] -= s->step[a];
   for (int i = 0; i < 3; ++i) {
     double x = r->p[i] + t * r->d[i];
     r->p[i] = x < g->lo[i] ? g->lo[i] : (x > g->hi[i] ? g->hi[i] : x);
@@ -158,13 +171,24 @@ static inline int hv_ray_march_uniform(const hv_grid_t *g, hv_ray_t *r, double d
   return 0;
 }
 
+/* 1 if q lies in the closed box of the ray's voxel. */
+static inline int hv_in_voxel(const hv_grid_t *g, const hv_ray_t *r, const double q[3]) {
+  int in = 1;
+  for (int a = 0; a < 3; ++a) {
+    const double *f = g->face[a] + r->v[a];
+    in &= (q[a] >= f[0]) & (q[a] <= f[1]);
+  }
+  return in;
+}
+
 /* Free flight: moves the ray until it has crossed optical depth @p depth
  * (returns 1: a collision at r->p) or reaches the boundary (returns 0: r->p
  * on face *face). *dist receives the distance travelled; r->k is the voxel
- * at the end. Segments go to @p log when it is not NULL. */
+ * at the end. Segments go to @p log when it is not NULL: one per voxel
+ * crossed, of its exact length in that voxel. */
 HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r, double depth,
-                                                double *dist,
-                               hetinv_face_t *face, hv_path_log_t *log) {
+                                                double *dist, hetinv_face_t *face,
+                                                hv_path_log_t *log) {
   if (g->uniform) {
     /* Gradient scores log the straight segment whole; it is split into
      * voxels only if a splat follows it (hv_grad_apply_log). */
@@ -173,27 +197,41 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
     if (log) hv_path_log_add_ray(log, p0, r->d, *dist);
     return collided;
   }
+  const hv_voxel_t *vx = &g->voxel[r->k];
+  /* Most flights end in the voxel they start in (the mean free path is
+   * about a voxel): if the collision point at depth/σt of this voxel lies in
+   * its box, that is the flight, with no stepping set-up at all. */
+  double x = depth * vx->inv_sigma_t, q[3];
+  for (int i = 0; i < 3; ++i) q[i] = r->p[i] + x * r->d[i];
+  if (hv_in_voxel(g, r, q)) { /* false for NaN and inf: vacuum voxels step */
+    if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
+    for (int i = 0; i < 3; ++i) r->p[i] = q[i];
+    *dist = x;
+    return 1;
+  }
   hv_dda_t s;
   hv_dda_init(g, r, &s);
-  double t = 0.0;
+  double t = 0.0, st = vx->sigma_t;
   for (;;) {
-    double seg = hv_dda_tmin(&s) - t, st = g->sigma_t[r->k];
-    if (st * seg >= depth) { /* collision inside this voxel */
-      double x = st > 0.0 ? depth / st : 0.0; /* depth 0 in a vacuum voxel */
+    int a = hv_dda_axis(&s);
+    double tn = s.t_next[a], tau = st * (tn - t);
+    if (tau >= depth) { /* collision inside this voxel */
+      x = st > 0.0 ? depth * vx->inv_sigma_t : 0.0; /* depth 0 in a vacuum voxel */
       if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
       t += x;
       for (int i = 0; i < 3; ++i) r->p[i] += t * r->d[i];
       *dist = t;
       return 1;
     }
-    if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, seg);
-    depth -= st * seg;
-    int a = hv_dda_axis(&s);
-    t = s.t_next[a];
+    if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, tn - t);
+    depth -= tau;
+    t = tn;
     if (!hv_dda_advance(g, r, &s, a, t, face)) {
       *dist = t;
       return 0;
     }
+    vx = &g->voxel[r->k];
+    st = vx->sigma_t;
   }
 }
 
@@ -205,7 +243,7 @@ static inline double hv_ray_to_boundary(const hv_grid_t *g, hv_ray_t *r, double 
     double p0[3] = {r->p[0], r->p[1], r->p[2]};
     hv_ray_exit_box(g, r, dist, face);
     if (log) hv_path_log_add_ray(log, p0, r->d, *dist);
-    return g->sigma_t[0] * *dist;
+    return g->voxel[0].sigma_t * *dist;
   }
   hv_dda_t s;
   hv_dda_init(g, r, &s);
@@ -214,7 +252,7 @@ static inline double hv_ray_to_boundary(const hv_grid_t *g, hv_ray_t *r, double 
     int a = hv_dda_axis(&s);
     double seg = s.t_next[a] - t;
     if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, seg);
-    depth += g->sigma_t[r->k] * seg;
+    depth += g->voxel[r->k].sigma_t * seg;
     t = s.t_next[a];
     if (!hv_dda_advance(g, r, &s, a, t, face)) {
       *dist = t;

@@ -237,7 +237,8 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
       continue;
     }
     ++scatterings;
-    double albedo = grid->albedo[r.k];
+    const hv_voxel_t *vx = &grid->voxel[r.k];
+    double albedo = vx->albedo;
     absorbed += w * (1.0 - albedo);
     w *= albedo;
     if (!(w > 0.0)) break; /* a purely absorbing voxel */
@@ -252,7 +253,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
         hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
       }
     }
-    hv_phase_t phase = {HV_PHASE_HG, grid->g[r.k]};
+    hv_phase_t phase = {HV_PHASE_HG, vx->g};
     if (scatterings >= tr->min_scattering) {
       for (int32_t i = 0; i < plan->ortho_count; ++i) {
         connect_sensor(tr, plan, &plan->ortho[i], &r, r.d, w, phase, tau, tally);
