@@ -81,42 +81,64 @@ static inline int64_t hv_vertex_voxel(const hv_grid_t *g, const hv_ray_t *r) {
   return q.k;
 }
 
-/* Amanatides–Woo stepping state of a ray in its current voxel. */
+/* Amanatides–Woo stepping state of a ray in its current voxel: the
+ * distance along the ray to the next face on each axis, and between faces.
+ * The step's sign is the direction's (an axis that is stepped along has
+ * d != 0); it is not stored: set-up is per flight, steps are fewer. */
 typedef struct hv_dda {
   double t_next[3], t_delta[3];
-  int64_t k_step[3]; /* linear-index step along each axis: ±stride or 0 */
-  int32_t step[3];
 } hv_dda_t;
 
-static inline void hv_dda_init(const hv_grid_t *g, const hv_ray_t *r, hv_dda_t *s) {
+/* Set-up from the faces of the ray's voxel, flo and fhi (face[a][v[a]]
+ * and face[a][v[a] + 1]). Free of branches: d = 0 gives 1/|d| = inf, and
+ * the one undefined product (0·inf, a ray on a face it runs along) becomes
+ * inf like the others, by the min. */
+static inline void hv_dda_init_faces(const hv_grid_t *g, const hv_ray_t *r, const double flo[3],
+                                     const double fhi[3], hv_dda_t *s) {
   for (int a = 0; a < 3; ++a) {
     double d = r->d[a];
-    double inv = 1.0 / d; /* ±inf for d = 0 */
-    int pos = d > 0.0, neg = d < 0.0;
-    s->step[a] = pos - neg;
-    s->k_step[a] = (pos - neg) * g->stride[a];
-    double t = (g->face[a][r->v[a] + pos] - r->p[a]) * inv;
-    t = d == 0.0 ? HUGE_VAL : t;
-    s->t_next[a] = t < 0.0 ? 0.0 : t; /* rounding on a voxel face */
-    s->t_delta[a] = g->h[a] * fabs(inv);
+    double ainv = 1.0 / fabs(d);
+    /* The face ahead by an index, not a branch: d > 0 picks fhi. The sign
+     * makes the distance positive; for d = ±0 it is ≥ 0 or clamped to 0. */
+    const double f[2] = {flo[a], fhi[a]};
+    double dist = (f[d > 0.0] - r->p[a]) * copysign(1.0, d);
+    dist = dist > 0.0 ? dist : 0.0; /* rounding on a voxel face */
+    double t = dist * ainv;
+    s->t_next[a] = t < HUGE_VAL ? t : HUGE_VAL; /* NaN -> inf */
+    s->t_delta[a] = g->h[a] * ainv;
   }
 }
 
-/* The axis whose face the ray reaches first; written for conditional moves,
- * not branches (which axis comes next is a coin toss to the predictor). */
+static inline void hv_dda_init(const hv_grid_t *g, const hv_ray_t *r, hv_dda_t *s) {
+  double flo[3], fhi[3];
+  for (int a = 0; a < 3; ++a) {
+    const double *f = g->face[a] + r->v[a];
+    flo[a] = f[0];
+    fhi[a] = f[1];
+  }
+  hv_dda_init_faces(g, r, flo, fhi, s);
+}
+
+/* The axis whose face the ray reaches first, in integer arithmetic and
+ * min, not branches: which axis comes next is a coin toss to a predictor. */
 static inline int hv_dda_axis(const hv_dda_t *s) {
-  int a = s->t_next[1] <= s->t_next[0];
-  return s->t_next[2] <= s->t_next[a] ? 2 : a;
+  double t0 = s->t_next[0], t1 = s->t_next[1], t2 = s->t_next[2];
+  int a = t1 <= t0;
+  double m = t0 < t1 ? t0 : t1;
+  int b = t2 <= m;
+  return a + b * (2 - a);
 }
 
 /* Steps into the next voxel along axis a at distance t; returns 0 and puts
  * r->p on the boundary (face in *face) if that leaves the box. */
 static inline int hv_dda_advance(const hv_grid_t *g, hv_ray_t *r, hv_dda_t *s, int a, double t,
                                  hetinv_face_t *face) {
-  int32_t v = r->v[a] + s->step[a];
+  int up = r->d[a] > 0.0;
+  int32_t step = 2 * up - 1; /* arithmetic, not a branch: the sign is a coin toss */
+  int32_t v = r->v[a] + step;
   if ((uint32_t)v < (uint32_t)g->n[a]) {
     r->v[a] = v;
-    r->k += s->k_step[a];
+    r->k += step * g->stride[a];
     s->t_next[a] += s->t_delta[a];
     return 1;
   }
@@ -124,8 +146,8 @@ static inline int hv_dda_advance(const hv_grid_t *g, hv_ray_t *r, hv_dda_t *s, i
     double x = r->p[i] + t * r->d[i];
     r->p[i] = x < g->lo[i] ? g->lo[i] : (x > g->hi[i] ? g->hi[i] : x);
   }
-  r->p[a] = s->step[a] > 0 ? g->hi[a] : g->lo[a];
-  *face = (hetinv_face_t)(2 * a + (s->step[a] > 0 ? 1 : 0));
+  r->p[a] = up ? g->hi[a] : g->lo[a];
+  *face = (hetinv_face_t)(2 * a + up);
   return 0;
 }
 
@@ -171,16 +193,6 @@ static inline int hv_ray_march_uniform(const hv_grid_t *g, hv_ray_t *r, double d
   return 0;
 }
 
-/* 1 if q lies in the closed box of the ray's voxel. */
-static inline int hv_in_voxel(const hv_grid_t *g, const hv_ray_t *r, const double q[3]) {
-  int in = 1;
-  for (int a = 0; a < 3; ++a) {
-    const double *f = g->face[a] + r->v[a];
-    in &= (q[a] >= f[0]) & (q[a] <= f[1]);
-  }
-  return in;
-}
-
 /* Free flight: moves the ray until it has crossed optical depth @p depth
  * (returns 1: a collision at r->p) or reaches the boundary (returns 0: r->p
  * on face *face). *dist receives the distance travelled; r->k is the voxel
@@ -201,30 +213,32 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
   /* Most flights end in the voxel they start in (the mean free path is
    * about a voxel): if the collision point at depth/σt of this voxel lies in
    * its box, that is the flight, with no stepping set-up at all. */
-  double x = depth * vx->inv_sigma_t, q[3];
-  for (int i = 0; i < 3; ++i) q[i] = r->p[i] + x * r->d[i];
-  if (hv_in_voxel(g, r, q)) { /* false for NaN and inf: vacuum voxels step */
+  double x = depth * vx->inv_sigma_t, q[3], flo[3], fhi[3];
+  int in = 1;
+  for (int a = 0; a < 3; ++a) {
+    const double *f = g->face[a] + r->v[a];
+    flo[a] = f[0];
+    fhi[a] = f[1];
+    q[a] = r->p[a] + x * r->d[a];
+    in &= (q[a] >= flo[a]) & (q[a] <= fhi[a]); /* false for NaN and inf: vacuum voxels step */
+  }
+  if (in) {
     if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
     for (int i = 0; i < 3; ++i) r->p[i] = q[i];
     *dist = x;
     return 1;
   }
+  /* The collision lies beyond the first voxel: cross it whole, then test
+   * each voxel entered. Should rounding make the two tests disagree, depth
+   * ends a hair below 0 and the collision is on the next face. */
   hv_dda_t s;
-  hv_dda_init(g, r, &s);
+  hv_dda_init_faces(g, r, flo, fhi, &s);
   double t = 0.0, st = vx->sigma_t;
+  int a = hv_dda_axis(&s);
+  double tn = s.t_next[a];
   for (;;) {
-    int a = hv_dda_axis(&s);
-    double tn = s.t_next[a], tau = st * (tn - t);
-    if (tau >= depth) { /* collision inside this voxel */
-      x = st > 0.0 ? depth * vx->inv_sigma_t : 0.0; /* depth 0 in a vacuum voxel */
-      if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
-      t += x;
-      for (int i = 0; i < 3; ++i) r->p[i] += t * r->d[i];
-      *dist = t;
-      return 1;
-    }
     if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, tn - t);
-    depth -= tau;
+    depth -= st * (tn - t);
     t = tn;
     if (!hv_dda_advance(g, r, &s, a, t, face)) {
       *dist = t;
@@ -232,6 +246,16 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
     }
     vx = &g->voxel[r->k];
     st = vx->sigma_t;
+    a = hv_dda_axis(&s);
+    tn = s.t_next[a];
+    if (st * (tn - t) >= depth) { /* collision inside this voxel */
+      x = depth > 0.0 ? depth * vx->inv_sigma_t : 0.0; /* st > 0 if depth > 0 */
+      if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
+      t += x;
+      for (int i = 0; i < 3; ++i) r->p[i] += t * r->d[i];
+      *dist = t;
+      return 1;
+    }
   }
 }
 

@@ -199,11 +199,13 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
   return 1;
 }
 
-/* The photon loop proper; hv_trace_photon wraps it with the score log. */
+/* The photon loop proper; hv_trace_photon wraps it with the score log.
+ * It is inlined twice, with grad a constant: the forward pass's free
+ * flights then carry no test for a log at each voxel crossing. */
 HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t *plan,
-                                          hv_rng_t *rng, hv_tally_t *tally) {
+                                          hv_rng_t *rng, hv_tally_t *tally, const bool grad) {
   const hv_grid_t *grid = tr->grid;
-  hv_path_log_t *plog = tally->grad ? &tally->grad->path : NULL;
+  hv_path_log_t *plog = grad ? &tally->grad->path : NULL;
   hv_launch_t launch;
   hv_emitter_sample(plan->emitter, rng, &launch);
 
@@ -282,7 +284,11 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
 HV_TARGET_CLONES_X86_64_V3
 void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
   hv_grad_tally_t *gt = tally->grad;
-  if (gt) hv_path_log_reset(&gt->path);
-  trace(tr, plan, rng, tally);
-  if (gt) hv_grad_apply_log(gt, tr->grid, &gt->path);
+  if (gt) {
+    hv_path_log_reset(&gt->path);
+    trace(tr, plan, rng, tally, true);
+    hv_grad_apply_log(gt, tr->grid, &gt->path);
+  } else {
+    trace(tr, plan, rng, tally, false);
+  }
 }
