@@ -89,34 +89,37 @@ typedef struct hv_dda {
   double t_next[3], t_delta[3];
 } hv_dda_t;
 
-/* Set-up from the faces of the ray's voxel, flo and fhi (face[a][v[a]]
- * and face[a][v[a] + 1]). Free of branches: d = 0 gives 1/|d| = inf, and
- * the one undefined product (0·inf, a ray on a face it runs along) becomes
- * inf like the others, by the min. */
-static inline void hv_dda_init_faces(const hv_grid_t *g, const hv_ray_t *r, const double flo[3],
-                                     const double fhi[3], hv_dda_t *s) {
+/* Distance along axis a from the ray's position to the face of its voxel
+ * ahead (flo, fhi: the voxel's faces on that axis), >= 0. The face is
+ * picked by an index, not a branch (d > 0: fhi); the sign of d makes the
+ * distance positive, and d = ±0 gives a distance >= 0 or, rounded, 0. */
+static inline double hv_face_distance(double p, double d, double flo, double fhi) {
+  const double f[2] = {flo, fhi};
+  double dist = (f[d > 0.0] - p) * copysign(1.0, d);
+  return dist > 0.0 ? dist : 0.0; /* rounding on a voxel face */
+}
+
+/* Set-up from the distances to the faces ahead, dist[a] (hv_face_distance).
+ * Free of branches: d = 0 gives 1/|d| = inf, and the one undefined product
+ * (0·inf, a ray on a face it runs along) becomes inf like the others, by
+ * the min. */
+static inline void hv_dda_init_dist(const hv_grid_t *g, const hv_ray_t *r, const double dist[3],
+                                    hv_dda_t *s) {
   for (int a = 0; a < 3; ++a) {
-    double d = r->d[a];
-    double ainv = 1.0 / fabs(d);
-    /* The face ahead by an index, not a branch: d > 0 picks fhi. The sign
-     * makes the distance positive; for d = ±0 it is ≥ 0 or clamped to 0. */
-    const double f[2] = {flo[a], fhi[a]};
-    double dist = (f[d > 0.0] - r->p[a]) * copysign(1.0, d);
-    dist = dist > 0.0 ? dist : 0.0; /* rounding on a voxel face */
-    double t = dist * ainv;
+    double ainv = 1.0 / fabs(r->d[a]);
+    double t = dist[a] * ainv;
     s->t_next[a] = t < HUGE_VAL ? t : HUGE_VAL; /* NaN -> inf */
     s->t_delta[a] = g->h[a] * ainv;
   }
 }
 
 static inline void hv_dda_init(const hv_grid_t *g, const hv_ray_t *r, hv_dda_t *s) {
-  double flo[3], fhi[3];
+  double dist[3];
   for (int a = 0; a < 3; ++a) {
     const double *f = g->face[a] + r->v[a];
-    flo[a] = f[0];
-    fhi[a] = f[1];
+    dist[a] = hv_face_distance(r->p[a], r->d[a], f[0], f[1]);
   }
-  hv_dda_init_faces(g, r, flo, fhi, s);
+  hv_dda_init_dist(g, r, dist, s);
 }
 
 /* The axis whose face the ray reaches first, in integer arithmetic and
@@ -211,20 +214,19 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
   }
   const hv_voxel_t *vx = &g->voxel[r->k];
   /* Most flights end in the voxel they start in (the mean free path is
-   * about a voxel): if the collision point at depth/σt of this voxel lies in
-   * its box, that is the flight, with no stepping set-up at all. */
-  double x = depth * vx->inv_sigma_t, q[3], flo[3], fhi[3];
+   * about a voxel): if the collision at x = depth/σt of this voxel comes
+   * before every face ahead (x·|d| <= distance to the face, on each axis),
+   * that is the flight, with no divisions and no stepping set-up. */
+  double x = depth * vx->inv_sigma_t, dist_face[3];
   int in = 1;
   for (int a = 0; a < 3; ++a) {
     const double *f = g->face[a] + r->v[a];
-    flo[a] = f[0];
-    fhi[a] = f[1];
-    q[a] = r->p[a] + x * r->d[a];
-    in &= (q[a] >= flo[a]) & (q[a] <= fhi[a]); /* false for NaN and inf: vacuum voxels step */
+    dist_face[a] = hv_face_distance(r->p[a], r->d[a], f[0], f[1]);
+    in &= x * fabs(r->d[a]) <= dist_face[a]; /* false for NaN and inf: vacuum voxels step */
   }
   if (in) {
     if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
-    for (int i = 0; i < 3; ++i) r->p[i] = q[i];
+    for (int i = 0; i < 3; ++i) r->p[i] += x * r->d[i];
     *dist = x;
     return 1;
   }
@@ -232,7 +234,7 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
    * each voxel entered. Should rounding make the two tests disagree, depth
    * ends a hair below 0 and the collision is on the next face. */
   hv_dda_t s;
-  hv_dda_init_faces(g, r, flo, fhi, &s);
+  hv_dda_init_dist(g, r, dist_face, &s);
   double t = 0.0, st = vx->sigma_t;
   int a = hv_dda_axis(&s);
   double tn = s.t_next[a];
