@@ -128,8 +128,8 @@ static inline int hv_dda_axis(const hv_dda_t *s) {
   double t0 = s->t_next[0], t1 = s->t_next[1], t2 = s->t_next[2];
   int a = t1 <= t0;
   double m = t0 < t1 ? t0 : t1;
-  int b = t2 <= m;
-  return a + b * (2 - a);
+  int b = -(t2 <= m); /* all ones if axis 2 comes first */
+  return (a & ~b) | (2 & b);
 }
 
 /* Steps into the next voxel along axis a at distance t; returns 0 and puts
