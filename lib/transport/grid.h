@@ -217,50 +217,13 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
    * about a voxel): if the collision at x = depth/σt of this voxel comes
    * before every face ahead (x·|d| <= distance to the face, on each axis),
    * that is the flight, with no divisions and no stepping set-up. */
-  double x = depth * vx->inv_sigma_t;
-  int in;
-  hv_dda_t s;
-#if defined(__GNUC__) || defined(__clang__)
-  {
-    /* The three axes at once, in vector registers (lane 3 unused). */
-    typedef double v4d __attribute__((vector_size(32)));
-    typedef int64_t v4i __attribute__((vector_size(32)));
-    const v4d zero = {0.0, 0.0, 0.0, 0.0};
-    const v4i sign_bit = {INT64_MIN, INT64_MIN, INT64_MIN, INT64_MIN};
-    const double *f0 = g->face[0] + r->v[0], *f1 = g->face[1] + r->v[1], *f2 = g->face[2] + r->v[2];
-    v4d p = {r->p[0], r->p[1], r->p[2], 0.0}, d = {r->d[0], r->d[1], r->d[2], 0.0};
-    v4d flo = {f0[0], f1[0], f2[0], 0.0}, fhi = {f0[1], f1[1], f2[1], 0.0};
-    v4i up = d > zero;
-    v4d ahead = (v4d)(((v4i)fhi & up) | ((v4i)flo & ~up));
-    v4d dv = (v4d)((v4i)(ahead - p) ^ ((v4i)d & sign_bit)); /* times the sign of d */
-    dv = (v4d)((v4i)dv & (dv > zero));                      /* rounding on a face: 0 */
-    v4d ad = (v4d)((v4i)d & ~sign_bit);
-    v4i ok = x * ad <= dv;
-    in = (int)(ok[0] & ok[1] & ok[2] & 1);
-    if (!in) {
-      /* The stepping set-up (hv_dda_init_dist), the same operations. */
-      const v4d h = {g->h[0], g->h[1], g->h[2], 0.0};
-      const v4d inf = {HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL};
-      v4d ainv = 1.0 / ad;
-      v4d t = dv * ainv;
-      v4i finite = t < inf; /* NaN (0·inf) -> inf */
-      t = (v4d)(((v4i)t & finite) | ((v4i)inf & ~finite));
-      v4d td = h * ainv;
-      for (int a = 0; a < 3; ++a) {
-        s.t_next[a] = t[a];
-        s.t_delta[a] = td[a];
-      }
-    }
-  }
-#else
-  double dist_face[3];
-  in = 1;
+  double x = depth * vx->inv_sigma_t, dist_face[3];
+  int in = 1;
   for (int a = 0; a < 3; ++a) {
     const double *f = g->face[a] + r->v[a];
     dist_face[a] = hv_face_distance(r->p[a], r->d[a], f[0], f[1]);
     in &= x * fabs(r->d[a]) <= dist_face[a]; /* false for NaN and inf: vacuum voxels step */
   }
-#endif
   if (in) {
     if (log) hv_path_log_add(log, HV_LOG_SEGMENT, r->k, x);
     for (int i = 0; i < 3; ++i) r->p[i] += x * r->d[i];
@@ -270,9 +233,8 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
   /* The collision lies beyond the first voxel: cross it whole, then test
    * each voxel entered. Should rounding make the two tests disagree, depth
    * ends a hair below 0 and the collision is on the next face. */
-#if !(defined(__GNUC__) || defined(__clang__))
+  hv_dda_t s;
   hv_dda_init_dist(g, r, dist_face, &s);
-#endif
   double t = 0.0, st = vx->sigma_t;
   int a = hv_dda_axis(&s);
   double tn = s.t_next[a];
