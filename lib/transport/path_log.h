@@ -42,6 +42,7 @@ typedef struct hv_path_log {
   hv_log_entry_t *entries;
   size_t count, capacity;
   double cum; /* splat weight so far */
+  bool scored; /* a splat was made: without one, every entry's share is 0 */
   const hetinv_context_t *ctx;
   bool out_of_memory;
 } hv_path_log_t;
@@ -104,6 +105,7 @@ void hv_path_log_release(hv_path_log_t *log);
 static inline void hv_path_log_reset(hv_path_log_t *log) {
   log->count = 0;
   log->cum = 0.0;
+  log->scored = false;
 }
 
 

@@ -79,6 +79,7 @@ static void score(const hv_plan_t *plan, const hv_sensor_target_t *t, hv_tally_t
   for (int32_t i = 0; i < t->row_count; ++i) {
     const hv_row_target_t *row = &plan->rows[t->first_row + i];
     if (tally->grad) {
+      log->scored = true;
       log->cum += value * hv_pathlength_dot(row->pathlength, tau,
                                             tally->grad->cotangent + row->offset + pixel, row->pixels);
     } else {
@@ -150,6 +151,7 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
       hv_grad_add(gt, HETINV_PARAM_G, hv_vertex_voxel(grid, vertex),
                   hv_phase_dlog_dg(phase, cos_theta) * chain->cum);
       gt->path.cum += chain->cum;
+      gt->path.scored = true;
     }
   }
 }
@@ -287,7 +289,8 @@ void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng
   if (gt) {
     hv_path_log_reset(&gt->path);
     trace(tr, plan, rng, tally, true);
-    hv_grad_apply_log(gt, tr->grid, &gt->path);
+    /* Most paths never reach a sensor: every entry's share is then 0. */
+    if (gt->path.scored) hv_grad_apply_log(gt, tr->grid, &gt->path);
   } else {
     trace(tr, plan, rng, tally, false);
   }
