@@ -154,6 +154,7 @@ static void reduce_item(void *self, int64_t item, int thread) {
   const hv_pass_t *pass = g->pass;
   hv_grad_tally_t *gt = &g->grads[thread];
   int32_t b = (int32_t)(item % pass->batches);
+  hv_grad_fold_extinction(gt); /* σs is complete from here on */
   if (g->var != NULL) {
     /* This batch's mean, in π space, enters its emitter's error. */
     double n = hv_pass_batch_size(pass, b);
