@@ -24,8 +24,17 @@
  * With --repeat R each thread count is run R times, interleaved
  * (1, 2, 1, 2, ...) so that drift of a shared machine hits both alike; the
  * fastest run of each is reported. --threads 1 (or 2) runs one thread
- * count only, for profiling. This is a benchmark, not a test: it
- * exits non-zero only when the library reports an error.
+ * count only, for profiling.
+ *
+ * --het-ratio renders a1 and a1-het on one thread, interleaved (a1,
+ * a1-het, a1, ...; --repeat rounds, the fastest of each kept), and prints
+ * the speed of the heterogeneous medium relative to the homogeneous one
+ * measured in the same process (target of issue 12: >= 0.8):
+ *
+ *   het_ratio photons=N a1_photons_per_s=P a1_het_photons_per_s=Q het_over_homog=Q/P
+ *
+ * This is a benchmark, not a test: it exits non-zero only when the
+ * library reports an error.
  */
 #include <errno.h>
 #include <inttypes.h>
@@ -127,25 +136,57 @@ static bool bench_case(case_id_t c, double photons, int repeat) {
   return ok;
 }
 
+/* a1 and a1-het on one thread, interleaved: the ratio of their speeds. */
+static bool bench_het_ratio(double photons, int repeat) {
+  scene_t h, x;
+  if (!scene_create(CASE_A1, 1, photons, &h)) return false;
+  if (!scene_create(CASE_A1_HET, 1, photons, &x)) {
+    scene_destroy(&h);
+    return false;
+  }
+  run_t best_h = {.seconds = HUGE_VAL}, best_x = {.seconds = HUGE_VAL}, rh, rx;
+  bool ok = true;
+  for (int i = 0; ok && i < repeat; ++i) {
+    ok = scene_render(&h, &rh) && scene_render(&x, &rx);
+    if (!ok) break;
+    if (rh.seconds < best_h.seconds) best_h = rh;
+    if (rx.seconds < best_x.seconds) best_x = rx;
+  }
+  if (ok) {
+    double ph = (double)best_h.photons / best_h.seconds, px = (double)best_x.photons / best_x.seconds;
+    printf("het_ratio photons=%.0f a1_photons_per_s=%.0f a1_het_photons_per_s=%.0f "
+           "het_over_homog=%.3f\n",
+           photons, ph, px, px / ph);
+    fflush(stdout);
+  }
+  scene_destroy(&x);
+  scene_destroy(&h);
+  return ok;
+}
+
 static void usage(FILE *f) {
   fprintf(f,
           "usage: hetinv-bench-forward [--photons N] [--case a1|a1-eta|a1-het|all] [--repeat R]\n"
-          "                            [--threads 1|2]\n"
+          "                            [--threads 1|2] [--het-ratio]\n"
           "  --photons N  photons per render (default %.0f)\n"
           "  --case C     which case to run (default all)\n"
           "  --repeat R   renders per thread count; the fastest is reported (default 1)\n"
-          "  --threads T  run only with T threads (1 or 2; for profiling: no scaling line)\n",
+          "  --threads T  run only with T threads (1 or 2; for profiling: no scaling line)\n"
+          "  --het-ratio  a1 and a1-het on one thread, interleaved: speed of a1-het / a1\n",
           DEFAULT_PHOTONS);
 }
 
 int main(int argc, char **argv) {
   double photons = DEFAULT_PHOTONS, repeat = 1, only_threads = 0;
+  bool het_ratio = false;
   int first = 0, last = CASE_COUNT - 1;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
     if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
       usage(stdout);
       return 0;
+    } else if (strcmp(a, "--het-ratio") == 0) {
+      het_ratio = true;
     } else if (strcmp(a, "--photons") == 0 && v) {
       if (!parse_number(v, 1, 281474976710655.0, &photons)) {
         fprintf(stderr, "hetinv-bench-forward: --photons wants an integer >= 1, not '%s'\n", v);
@@ -185,6 +226,7 @@ int main(int argc, char **argv) {
       return 2;
     }
   }
+  if (het_ratio) return bench_het_ratio(photons, (int)repeat) ? 0 : 1;
   for (int c = first; c <= last; ++c) {
     bool ok = only_threads > 0
                   ? bench_case_single((case_id_t)c, photons, (int)repeat, (int32_t)only_threads)

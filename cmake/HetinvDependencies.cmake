@@ -58,9 +58,9 @@ if(HETINV_BUILD_TESTS)
   endif()
 endif()
 
-if(HETINV_BUILD_EXAMPLES)
+if(HETINV_BUILD_EXAMPLES OR HETINV_BUILD_FUZZERS) # the scene fuzzers parse the examples' JSON
   pkg_check_modules(CJSON QUIET IMPORTED_TARGET libcjson)
   if(NOT CJSON_FOUND)
-    hetinv_missing("cJSON (for the examples; or -DHETINV_BUILD_EXAMPLES=OFF)" "libcjson-dev")
+    hetinv_missing("cJSON (for the examples and scene fuzzers; or -DHETINV_BUILD_EXAMPLES=OFF)" "libcjson-dev")
   endif()
 endif()

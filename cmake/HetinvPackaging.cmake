@@ -18,6 +18,16 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/hetinv DESTINATION ${CMAKE_INSTA
 install(FILES ${PROJECT_BINARY_DIR}/include/hetinv/version.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/hetinv)
 
+# hetinv.pc locates its prefix from where it is installed (${pcfiledir}), so
+# an install moved or made with `cmake --install --prefix DIR` (a prefix
+# other than the configured one) still gives the right paths.
+if(IS_ABSOLUTE "${CMAKE_INSTALL_LIBDIR}")
+  set(HETINV_PC_PREFIX "${CMAKE_INSTALL_PREFIX}")
+else()
+  file(RELATIVE_PATH hetinv_pc_up "/p/${CMAKE_INSTALL_LIBDIR}/pkgconfig" "/p")
+  string(REGEX REPLACE "/$" "" hetinv_pc_up "${hetinv_pc_up}")
+  set(HETINV_PC_PREFIX "\${pcfiledir}/${hetinv_pc_up}")
+endif()
 configure_file(${PROJECT_SOURCE_DIR}/hetinv.pc.in ${PROJECT_BINARY_DIR}/hetinv.pc @ONLY)
 install(FILES ${PROJECT_BINARY_DIR}/hetinv.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
 

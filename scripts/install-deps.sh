@@ -9,8 +9,11 @@ pkgs="build-essential cmake pkg-config libopenexr-dev librandom123-dev libpng-de
 if [ "$mode" = test ]; then
   # openmpi-*: the MPI build variant (HETINV_WITH_MPI) of scripts/test.sh;
   # python3, python3-numpy, python3-matplotlib: the Python binding's tests (numpy
-  # arrays are a tested path) and the Fig. 4(a) figure example
+  # arrays are a tested path) and the Fig. 4(a) figure example; python3-venv,
+  # python3-pip, python3-setuptools, python3-wheel: the offline
+  # `pip install --no-build-isolation bindings/python` test (python_pip_install)
   pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils openmpi-bin libopenmpi-dev python3 python3-numpy python3-matplotlib"
+  pkgs="$pkgs python3-venv python3-pip python3-setuptools python3-wheel"
 fi
 
 missing=""

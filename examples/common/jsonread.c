@@ -300,12 +300,16 @@ static int syntax_error(jr_t *jr, const char *text, const char *end) {
   return -1;
 }
 
+int jr_parse(jr_t *jr, const char *text, cJSON **root) {
+  const char *end = NULL;
+  *root = cJSON_ParseWithOpts(text, &end, 1);
+  if (*root == NULL) return syntax_error(jr, text, end);
+  return 0;
+}
+
 int jr_load(jr_t *jr, const char *path, char **text, cJSON **root) {
   *text = NULL;
   *root = NULL;
   if (read_file(jr, path, text) < 0) return -1;
-  const char *end = NULL;
-  *root = cJSON_ParseWithOpts(*text, &end, 1);
-  if (*root == NULL) return syntax_error(jr, *text, end);
-  return 0;
+  return jr_parse(jr, *text, root);
 }

@@ -52,6 +52,10 @@ int jr_check_object(jr_t *jr, const cJSON *item, const char *path, const char *c
  * (free) and *root (cJSON_Delete), also after a failure. */
 int jr_load(jr_t *jr, const char *path, char **text, cJSON **root);
 
+/* Parses text (NUL-terminated, read from jr->file) like jr_load; the
+ * caller frees *root (cJSON_Delete), also after a failure. */
+int jr_parse(jr_t *jr, const char *text, cJSON **root);
+
 /* A finite number. */
 int jr_number(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
               double *out);

@@ -40,7 +40,7 @@ box_min, box_max, dims = (0, 0, 0), (10, 10, 10), (n, n, 1)
 truth = hetinv.Medium(ctx, box_min, box_max, dims).set_ior(1.3, 1.0)
 truth.fill_gaussian_mixture(seed=4, constant_axis=2, lo=(0.05, 2.0, 0.5), hi=(0.05, 8.0, 0.5))
 truth.commit()
-sigma_true = list(truth.grid("sigma_s"))
+sigma_true = list(hetinv.flat(truth.grid("sigma_s")))  # grids are (nz, ny, nx) with numpy
 print("true sigma_s in [%.2f, %.2f] /mm" % (min(sigma_true), max(sigma_true)))
 
 # %% [markdown]
@@ -101,7 +101,7 @@ print("stopped:", optimizer.run(estimator))
 # The relative error ‖σs − σs_true‖ / ‖σs_true‖ of the initial guess and of
 # the estimate, and the estimate as a Mitsuba .vol file.
 def relative_error(values):
-    num = math.sqrt(sum((v - t) ** 2 for v, t in zip(values, sigma_true)))
+    num = math.sqrt(sum((v - t) ** 2 for v, t in zip(hetinv.flat(values), sigma_true)))
     return num / math.sqrt(sum(t * t for t in sigma_true))
 
 

@@ -94,6 +94,51 @@ static bool carries_source(int32_t i, int32_t count, int32_t stride, int32_t hal
   return count == 1 || i % stride == (half < count ? half : 0);
 }
 
+double recon_bin_count(const recon_scene_t *sc) {
+  return ceil(sc->max_pathlength / sc->bin_width - 1e-9);
+}
+
+/* Pixels i in [0, count) with carries_source(i, count, stride, stride / 2). */
+static double source_pixels(int32_t count, int32_t stride) {
+  if (count == 1) return 1.0;
+  int32_t half = stride / 2, h = half < count ? half : 0;
+  return (double)((count - 1 - h) / stride + 1);
+}
+
+void recon_imaging_size(const recon_scene_t *sc, recon_imaging_size_t *size) {
+  bool transient = sc->config != RECON_STEADY;
+  bool steady = sc->config == RECON_STEADY || sc->config == RECON_COMBINED;
+  double bins = transient ? recon_bin_count(sc) : 0.0;
+  double cameras = 0.0, camera_pixels = 0.0; /* steady-state cameras, their pixels in all */
+  for (int f = 0; steady && f < 6; ++f) {
+    if (!(sc->camera_faces & (1u << f))) continue;
+    face_grid_t g;
+    face_grid(sc, f, &g);
+    cameras += 1.0;
+    camera_pixels += (double)g.count[0] * (double)g.count[1];
+  }
+  int32_t normal = 0; /* orientations at normal incidence */
+  for (int32_t a = 0; a < sc->angle_count; ++a) normal += sc->angles[a] == 0.0;
+  int32_t orientations = sc->config == RECON_PATHLENGTH ? normal : sc->angle_count;
+  int32_t probed = sc->config == RECON_PATHLENGTH_ANGLES ? sc->angle_count : normal;
+  *size = (recon_imaging_size_t){0.0, 0.0, 0.0};
+  for (int f = 0; f < 6; ++f) {
+    if (!(sc->source_faces & (1u << f))) continue;
+    face_grid_t g;
+    face_grid(sc, f, &g);
+    double sources = source_pixels(g.count[0], sc->source_stride) *
+                     source_pixels(g.count[1], sc->source_stride);
+    double emitters = sources * orientations;
+    size->emitters += emitters;
+    size->rows += emitters * cameras;
+    size->values += emitters * camera_pixels;
+    if (transient) { /* one row per probed emitter, up to 3 pixels of all bins */
+      size->rows += sources * probed;
+      size->values += sources * probed * 3.0 * bins;
+    }
+  }
+}
+
 hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t *m,
                                     const recon_scene_t *sc, recon_imaging_t *im) {
   memset(im, 0, sizeof *im);

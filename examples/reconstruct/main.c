@@ -60,9 +60,9 @@ static int run(int argc, char **argv, outdir_t *dir) {
     } else if (strcmp(a, "--quiet") == 0) {
       quiet = true;
     } else if (strcmp(a, "--threads") == 0) {
-      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 0, 4096, &threads) < 0) return 2;
+      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 0, HETINV_MAX_THREADS, &threads) < 0) return 2;
     } else if (strcmp(a, "--iterations") == 0) {
-      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT64_C(1) << 40, &iterations) < 0) return 2;
+      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT32_MAX, &iterations) < 0) return 2;
     } else if (strcmp(a, "--photons") == 0) {
       if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT64_C(1) << 40, &photons) < 0) return 2;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {

@@ -26,6 +26,10 @@ enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM };
 
 #define RECON_MAX_LEVELS 8
 #define RECON_MAX_ANGLES 8
+/* Layer-wise stages: with the levels' stages within HETINV_MAX_STAGES. */
+#define RECON_MAX_LAYERS (HETINV_MAX_STAGES - RECON_MAX_LEVELS)
+/* Most emitters (sources × orientations) of an imaging configuration. */
+#define RECON_MAX_EMITTERS 65536
 
 typedef struct recon_scene {
   /* Medium: a cube of side `size` (mm) with grid[0] × grid[1] × grid[2]
@@ -83,8 +87,22 @@ void recon_scene_default(recon_scene_t *scene);
 /* Reads a JSON scene over the defaults; on failure writes a message naming
  * the field to msg and returns -1. */
 int recon_scene_read(const char *path, recon_scene_t *scene, char *msg, size_t msg_size);
+/* The same on text already read, as if from the file at path. */
+int recon_scene_parse(const char *path, const char *text, recon_scene_t *scene, char *msg,
+                      size_t msg_size);
 /* Checks the values; -1 with a message on a bad one. */
 int recon_scene_check(const recon_scene_t *scene, char *msg, size_t msg_size);
+
+/* Pathlength bins of the transient configurations, as a double (it may be
+ * huge before recon_scene_check() has seen the scene). */
+double recon_bin_count(const recon_scene_t *scene);
+
+/* Emitters, rows and values the configuration would make, computed (as
+ * doubles, without overflow) from the scene alone, before building it. */
+typedef struct recon_imaging_size {
+  double emitters, rows, values;
+} recon_imaging_size_t;
+void recon_imaging_size(const recon_scene_t *scene, recon_imaging_size_t *size);
 
 /* The sampling functions and measurement set of a configuration. */
 typedef struct recon_imaging {

@@ -230,8 +230,14 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   static const char *const methods[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, methods, &sc->method) < 0) return -1;
-  if (jr_integer(jr, o, "optimizer", "iterations", JR_OPTIONAL, 1, (int64_t)1 << 40, &sc->iterations) < 0) return -1;
+  /* A stage's iteration count is an int32_t (hetinv_stage_t). */
+  if (jr_integer(jr, o, "optimizer", "iterations", JR_OPTIONAL, 1, INT32_MAX, &sc->iterations) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "coarse_fraction", JR_OPTIONAL, &sc->coarse_fraction) < 0) return -1;
+  /* At most 1, so a coarse stage never has more iterations than the finest
+   * (which fits in an int32_t, also after --iterations). */
+  if (!(sc->coarse_fraction <= 1.0)) {
+    return jr_fail(jr, "optimizer.coarse_fraction", "is %g; it must be > 0 and at most 1", sc->coarse_fraction);
+  }
   if (read_int32(jr, o, "optimizer", "minibatch", 0, INT32_MAX, &sc->minibatch) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "epsilon", JR_OPTIONAL, &sc->epsilon) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "decay", JR_OPTIONAL, &sc->decay) < 0) return -1;
@@ -241,7 +247,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (read_triplet_object(jr, o, "optimizer", "bounds", sc->bounds_lo, sc->bounds_hi) < 0) return -1;
   for (int p = 0; p < 3; ++p) sc->init[p] = 0.5 * (sc->bounds_lo[p] + sc->bounds_hi[p]);
   if (jr_numbers(jr, o, "optimizer", "init", JR_OPTIONAL, 3, sc->init) < 0) return -1;
-  if (read_int32(jr, o, "optimizer", "layerwise_layers", 0, 256, &sc->layerwise_layers) < 0) return -1;
+  if (read_int32(jr, o, "optimizer", "layerwise_layers", 0, RECON_MAX_LAYERS, &sc->layerwise_layers) < 0) return -1;
   const cJSON *arr = NULL;
   int count = 0;
   got = jr_array(jr, o, "optimizer", "levels", JR_OPTIONAL, 1, &arr, &count);
@@ -261,11 +267,37 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   return 0;
 }
 
+static int parse_root(jr_t *jr, cJSON *root, recon_scene_t *sc, char *msg, size_t msg_size);
+
 int recon_scene_read(const char *path, recon_scene_t *sc, char *msg, size_t msg_size) {
   jr_t jr = {.file = path};
   char *text = NULL;
   cJSON *root = NULL;
   int rc = jr_load(&jr, path, &text, &root);
+  free(text);
+  if (rc != 0) {
+    snprintf(msg, msg_size, "%s", jr.message);
+    cJSON_Delete(root);
+    return -1;
+  }
+  return parse_root(&jr, root, sc, msg, msg_size);
+}
+
+int recon_scene_parse(const char *path, const char *text, recon_scene_t *sc, char *msg, size_t msg_size) {
+  jr_t jr = {.file = path};
+  cJSON *root = NULL;
+  if (jr_parse(&jr, text, &root) < 0) {
+    snprintf(msg, msg_size, "%s", jr.message);
+    cJSON_Delete(root);
+    return -1;
+  }
+  return parse_root(&jr, root, sc, msg, msg_size);
+}
+
+/* Reads the parsed scene over sc and checks it; frees root. */
+static int parse_root(jr_t *jrp, cJSON *root, recon_scene_t *sc, char *msg, size_t msg_size) {
+  jr_t jr = *jrp;
+  int rc = 0;
   if (rc == 0 && !cJSON_IsObject(root)) rc = jr_fail(&jr, "", "expected an object");
   static const char *const allowed[] = {"name", "medium", "truth", "imaging", "acquisition", "estimator",
                                         "optimizer", "seed", "threads", "output", NULL};
@@ -279,7 +311,7 @@ int recon_scene_read(const char *path, recon_scene_t *sc, char *msg, size_t msg_
   int64_t v = (int64_t)sc->seed;
   if (rc == 0 && jr_integer(&jr, root, "", "seed", JR_OPTIONAL, 0, INT64_MAX, &v) < 0) rc = -1;
   sc->seed = (uint64_t)v;
-  if (rc == 0 && read_int32(&jr, root, "", "threads", 0, 4096, &sc->threads) < 0) rc = -1;
+  if (rc == 0 && read_int32(&jr, root, "", "threads", 0, HETINV_MAX_THREADS, &sc->threads) < 0) rc = -1;
   if (rc == 0) rc = read_medium(&jr, root, sc);
   if (rc == 0) rc = read_truth(&jr, root, sc);
   if (rc == 0) rc = read_imaging(&jr, root, sc);
@@ -293,7 +325,6 @@ int recon_scene_read(const char *path, recon_scene_t *sc, char *msg, size_t msg_
   if (rc == 0) rc = read_optimizer(&jr, root, sc);
   if (rc != 0) snprintf(msg, msg_size, "%s", jr.message);
   cJSON_Delete(root);
-  free(text);
   if (rc == 0) rc = recon_scene_check(sc, msg, msg_size);
   return rc < 0 ? -1 : 0;
 }
@@ -325,6 +356,37 @@ int recon_scene_check(const recon_scene_t *sc, char *msg, size_t n) {
   }
   if (sc->config != RECON_STEADY && sc->max_pathlength < sc->bin_width) {
     snprintf(msg, n, "imaging.max_pathlength (%g) is shorter than one bin (%g)", sc->max_pathlength, sc->bin_width);
+    return -1;
+  }
+  /* Counts are checked here, in doubles, before anything is cast to an
+   * integer or allocated. */
+  if (sc->config != RECON_STEADY && !(recon_bin_count(sc) <= HETINV_MAX_PATHLENGTH_BINS)) {
+    snprintf(msg, n, "imaging.bin_width: %g bins of %g up to max_pathlength %g; at most %d "
+             "(HETINV_MAX_PATHLENGTH_BINS)", recon_bin_count(sc), sc->bin_width, sc->max_pathlength,
+             HETINV_MAX_PATHLENGTH_BINS);
+    return -1;
+  }
+  if (!(sc->iterations >= 1 && sc->iterations <= INT32_MAX)) {
+    snprintf(msg, n, "optimizer.iterations: %lld; expected an integer from 1 to %d",
+             (long long)sc->iterations, INT32_MAX);
+    return -1;
+  }
+  if (!(sc->coarse_fraction > 0.0 && sc->coarse_fraction <= 1.0)) {
+    snprintf(msg, n, "optimizer.coarse_fraction: %g; it must be > 0 and at most 1", sc->coarse_fraction);
+    return -1;
+  }
+  recon_imaging_size_t size;
+  recon_imaging_size(sc, &size);
+  if (!(size.emitters <= RECON_MAX_EMITTERS)) {
+    snprintf(msg, n, "imaging: %.0f sources x orientations; at most %d (fewer source_faces, a "
+             "larger source_stride, fewer angles or pixels_per_voxel)", size.emitters, RECON_MAX_EMITTERS);
+    return -1;
+  }
+  if (!(size.rows <= HETINV_MAX_MEASUREMENT_ROWS && size.values <= (double)HETINV_MAX_MEASUREMENT_VALUES)) {
+    snprintf(msg, n, "imaging: %.0f measurement rows of %.0f values in all; at most %ld rows "
+             "(HETINV_MAX_MEASUREMENT_ROWS) and %lld values (HETINV_MAX_MEASUREMENT_VALUES)",
+             size.rows, size.values, (long)HETINV_MAX_MEASUREMENT_ROWS,
+             (long long)HETINV_MAX_MEASUREMENT_VALUES);
     return -1;
   }
   if (sc->level_count < 1) {

@@ -111,8 +111,8 @@ static int parse_options(int argc, char **argv, options_t *o) {
       }
       o->has_seed = 1;
     } else {
-      if (parse_count(value, 0, 4096, &o->threads) < 0) {
-        return usage_error("--threads: '%s' is not a whole number from 0 to 4096", value);
+      if (parse_count(value, 0, HETINV_MAX_THREADS, &o->threads) < 0) {
+        return usage_error("--threads: '%s' is not a whole number from 0 to %d", value, HETINV_MAX_THREADS);
       }
       o->has_threads = 1;
     }

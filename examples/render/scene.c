@@ -45,7 +45,7 @@ static int read_run_settings(scene_t *sc, jr_t *jr) {
   if ((r = jr_integer(jr, root, "", "seed", JR_OPTIONAL, 0, JSON_INT_MAX, &v)) < 0) return r;
   sc->seed = (uint64_t)v;
   v = 0;
-  if ((r = jr_integer(jr, root, "", "threads", JR_OPTIONAL, 0, 4096, &v)) < 0) return r;
+  if ((r = jr_integer(jr, root, "", "threads", JR_OPTIONAL, 0, HETINV_MAX_THREADS, &v)) < 0) return r;
   sc->threads = (int32_t)v;
 
   const cJSON *est = NULL;
@@ -63,7 +63,8 @@ static int read_run_settings(scene_t *sc, jr_t *jr) {
   return 0;
 }
 
-int scene_load(scene_t *sc, const char *path, jr_t *jr) {
+/* Everything of scene_load but reading the file. */
+static void scene_begin(scene_t *sc, const char *path, jr_t *jr) {
   memset(sc, 0, sizeof *sc);
   sc->path = path;
   jr->file = path;
@@ -73,8 +74,24 @@ int scene_load(scene_t *sc, const char *path, jr_t *jr) {
   } else {
     snprintf(sc->dir, sizeof sc->dir, "%.*s", (int)(slash - path == 0 ? 1 : slash - path), path);
   }
-  if (jr_load(jr, path, &sc->text, &sc->root) < 0) return -1;
+}
 
+static int scene_parse(scene_t *sc, jr_t *jr);
+
+int scene_load(scene_t *sc, const char *path, jr_t *jr) {
+  scene_begin(sc, path, jr);
+  if (jr_load(jr, path, &sc->text, &sc->root) < 0) return -1;
+  return scene_parse(sc, jr);
+}
+
+int scene_load_text(scene_t *sc, const char *path, char *text, jr_t *jr) {
+  scene_begin(sc, path, jr);
+  sc->text = text;
+  if (jr_parse(jr, text, &sc->root) < 0) return -1;
+  return scene_parse(sc, jr);
+}
+
+static int scene_parse(scene_t *sc, jr_t *jr) {
   static const char *const allowed[] = {
       "description", "unit", "box", "eta", "eta_out", "medium", "emitters", "sensors",
       "pathlength", "pathlengths", "measurements", "photons", "seed", "threads", "estimator", NULL};

@@ -98,6 +98,10 @@ extern const char *const scene_face_names[];
  * estimator); creates no library object. On failure jr->message says why. */
 int scene_load(scene_t *scene, const char *path, jr_t *jr);
 
+/* scene_load on text already read (malloc'd; the scene owns it from now
+ * on, also after a failure), as if from the file at path. */
+int scene_load_text(scene_t *scene, const char *path, char *text, jr_t *jr);
+
 /* Creates the medium, sampling functions and measurement set from ctx. */
 int scene_build(scene_t *scene, hetinv_context_t *ctx, jr_t *jr);
 

@@ -11,8 +11,9 @@
 
 static const char *const param_keys[HETINV_PARAM_COUNT] = {"sigma_a", "sigma_s", "g"};
 
-/* Most voxels a scene may ask for (the grid is held several times). */
-#define MAX_VOXELS ((int64_t)1 << 27)
+/* Most voxels a scene may ask for: the library's bound, checked here
+ * before the scene's own grids are allocated. */
+#define MAX_VOXELS ((int64_t)HETINV_MAX_VOXELS)
 
 /* Checks one parameter value: σ ≥ 0, -1 < g < 1. */
 static int check_param(jr_t *jr, const char *at, int p, double v) {
@@ -75,7 +76,7 @@ static int read_dims(jr_t *jr, const cJSON *medium, int32_t dims[3]) {
     dims[a] = (int32_t)d[a];
     total *= dims[a];
     if (total > MAX_VOXELS) {
-      return jr_fail(jr, "medium.dims", "more than %lld voxels", (long long)MAX_VOXELS);
+      return jr_fail(jr, "medium.dims", "more than %lld voxels (HETINV_MAX_VOXELS)", (long long)MAX_VOXELS);
     }
   }
   return 1;
@@ -276,7 +277,8 @@ static int build_vol(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const cJSON *
   }
   memcpy(sc->dims, header.dims, sizeof sc->dims);
   if ((int64_t)sc->dims[0] * sc->dims[1] * sc->dims[2] > MAX_VOXELS) {
-    return jr_fail(jr, at, "more than %lld voxels", (long long)MAX_VOXELS);
+    return jr_fail(jr, at, "%d x %d x %d is more than %lld voxels (HETINV_MAX_VOXELS)",
+                   (int)sc->dims[0], (int)sc->dims[1], (int)sc->dims[2], (long long)MAX_VOXELS);
   }
   r = hetinv_medium_create(ctx, sc->box_min, sc->box_max, sc->dims, &sc->medium);
   if (r != HETINV_SUCCESS) return scene_lib_fail(jr, has_box ? "box" : at, ctx, r);

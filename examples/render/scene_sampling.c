@@ -306,8 +306,9 @@ static int orthographic_grid(scene_t *sc, jr_t *jr, const cJSON *item, const cha
   }
   s->width = (int32_t)w;
   s->height = (int32_t)h;
-  if ((int64_t)w * h > (1 << 26)) {
-    return jr_fail(jr, at, "%lld x %lld pixels; at most 2^26 in all", (long long)w, (long long)h);
+  if ((int64_t)w * h > HETINV_MAX_SENSOR_PIXELS) {
+    return jr_fail(jr, at, "%lld x %lld pixels; at most %ld in all (HETINV_MAX_SENSOR_PIXELS)",
+                   (long long)w, (long long)h, (long)HETINV_MAX_SENSOR_PIXELS);
   }
   return 0;
 }

@@ -47,6 +47,14 @@ typedef void (*hetinv_free_fn)(void *user_data, void *ptr);
 typedef void (*hetinv_error_fn)(void *user_data, hetinv_result_t code, const char *message);
 
 /**
+ * Largest hetinv_context_init_t::thread_count. OpenMP runtimes fail (or
+ * abort) when asked for tens of thousands of threads, and the estimator
+ * keeps a tally per thread; no machine this library targets has more
+ * hardware threads than this.
+ */
+#define HETINV_MAX_THREADS 1024
+
+/**
  * @brief Creation parameters of a context.
  *
  * Start from HETINV_CONTEXT_INIT_DEFAULT and change what you need. The first
@@ -61,7 +69,7 @@ typedef struct hetinv_context_init {
   void *alloc_user_data;      /**< passed to alloc_fn and free_fn */
   hetinv_error_fn error_fn;   /**< NULL: no callback (messages are still recorded) */
   void *error_user_data;      /**< passed to error_fn */
-  int32_t thread_count;       /**< worker threads for parallel work; 0: all the OpenMP runtime offers */
+  int32_t thread_count;       /**< worker threads for parallel work, in [0, HETINV_MAX_THREADS]; 0: all the OpenMP runtime offers (at most HETINV_MAX_THREADS) */
   uint64_t seed;              /**< base seed of every random stream derived from this context */
 } hetinv_context_init_t;
 
@@ -77,7 +85,8 @@ typedef struct hetinv_context_init {
  * @return HETINV_SUCCESS;
  *         HETINV_ERROR_NULL_ARGUMENT if @p out is NULL;
  *         HETINV_ERROR_INVALID_ARGUMENT if init->size is smaller than the
- *         first version of the struct, thread_count < 0, or exactly one of
+ *         first version of the struct, thread_count < 0 or
+ *         > HETINV_MAX_THREADS, or exactly one of
  *         alloc_fn / free_fn is set;
  *         HETINV_ERROR_OUT_OF_MEMORY;
  *         HETINV_ERROR_INTERNAL if, in a build with MPI and with MPI

@@ -67,7 +67,12 @@ enum hetinv_estimator_param_id {
   /** Only light scattered at least this many times contributes (default 0). */
   HETINV_ESTIMATOR_MIN_SCATTERING = 4,
   /** Only light scattered at most this many times contributes; photons stop
-   *  after it (default 0 = unlimited). MIN = MAX = 1 gives single scattering. */
+   *  after it (default HETINV_ESTIMATOR_DEFAULT_MAX_SCATTERING; integer in
+   *  [0, 1e9]). MIN = MAX = 1 gives single scattering. 0 means unlimited:
+   *  then a photon in a medium whose albedo rounds to 1 (σs ≫ σa, e.g.
+   *  σs = 1e308) may scatter for ever and the render never ends. Paths
+   *  stopped by the bound are counted in hetinv_render_stats_t::truncated_paths
+   *  and their power in hetinv_render_stats_t::truncated. */
   HETINV_ESTIMATOR_MAX_SCATTERING = 5,
   /** Random stream id (default 0; integer in [0, 65535]): renders with
    *  different streams are independent, with the same stream identical. */
@@ -77,6 +82,21 @@ enum hetinv_estimator_param_id {
   HETINV_ESTIMATOR_EPOCH = 7,
   HETINV_ESTIMATOR_PARAM_COUNT_ = 8 /**< not a parameter: one past the last */
 };
+
+/**
+ * Default of HETINV_ESTIMATOR_MAX_SCATTERING: scattering events after which
+ * a photon path is stopped (and counted as truncated).
+ *
+ * Each event costs of the order of a microsecond, so one photon costs at
+ * most about a second. The bound does not bias any physical result: a path
+ * that survives 10^6 scatterings without being absorbed, leaving the box or
+ * losing a Russian roulette needs an albedo within 10^-5 of 1 and a box
+ * hundreds of mean free paths across (a diffusing photon leaves a box of
+ * optical size T after about T² events), so the power it carries is far
+ * below the Monte Carlo error bar of any value; the statistics report it
+ * (hetinv_render_stats_t::truncated) should it not be.
+ */
+#define HETINV_ESTIMATOR_DEFAULT_MAX_SCATTERING 1000000
 
 /**
  * @brief Statistics of the last render, as fractions of the emitted power,
@@ -96,6 +116,7 @@ typedef struct hetinv_render_stats {
   double escaped[6];         /**< left the medium through each face (enum hetinv_face_id) */
   double escaped_std_error[6]; /**< their standard errors */
   double truncated;          /**< stopped by HETINV_ESTIMATOR_MAX_SCATTERING */
+  uint64_t truncated_paths;  /**< photon paths stopped by HETINV_ESTIMATOR_MAX_SCATTERING (all emitters) */
 } hetinv_render_stats_t;
 
 /**

@@ -143,16 +143,23 @@ enum hetinv_colormap_id {
   HETINV_COLORMAP_VIRIDIS = 1 /**< perceptually uniform dark blue → green → yellow */
 };
 
+/** Most floats (width × height × channels) of an image made by
+ *  hetinv_image_create(): 2^28 (1 GiB), room for every value of the
+ *  largest measurement set (HETINV_MAX_MEASUREMENT_VALUES) in four channels. */
+#define HETINV_MAX_IMAGE_VALUES (INT64_C(1) << 28)
+
 /**
  * @brief Create an image with all pixels 0, channels named "c0", "c1", ...
  *        and no attributes.
  * @param ctx the context; the image must be destroyed before it.
- * @param width, height, channel_count each > 0; the total number of floats
- *        must fit in memory sizes.
+ * @param width, height, channel_count each > 0, with at most
+ *        HETINV_MAX_IMAGE_VALUES floats in all.
  * @param[out] out receives the image; NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
- *         HETINV_ERROR_INVALID_ARGUMENT; HETINV_ERROR_SIZE_OVERFLOW;
- *         HETINV_ERROR_OUT_OF_MEMORY. Thread-safe.
+ *         HETINV_ERROR_INVALID_ARGUMENT (also for more than
+ *         HETINV_MAX_IMAGE_VALUES floats); HETINV_ERROR_SIZE_OVERFLOW (a
+ *         product that overflows size_t); HETINV_ERROR_OUT_OF_MEMORY.
+ *         Thread-safe.
  */
 HETINV_API hetinv_result_t hetinv_image_create(hetinv_context_t *ctx, int32_t width,
                                                int32_t height, int32_t channel_count,

@@ -35,6 +35,13 @@
 extern "C" {
 #endif
 
+/** Most rows of a measurement set: 2^20. */
+#define HETINV_MAX_MEASUREMENT_ROWS (INT32_C(1) << 20)
+/** Most values (pixels × bins over all rows) of a measurement set: 2^26.
+ *  A set holds 25 bytes per value and a render allocates about 32 more (plus
+ *  8 per value and thread), so a full set needs a few GB. */
+#define HETINV_MAX_MEASUREMENT_VALUES (INT64_C(1) << 26)
+
 /** Opaque measurement set handle. */
 typedef struct hetinv_measurements hetinv_measurements_t;
 
@@ -59,8 +66,9 @@ HETINV_API void hetinv_measurements_destroy(hetinv_measurements_t **set);
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
  *         HETINV_ERROR_INVALID_ARGUMENT if the emitter or sensor was created
  *         from a medium whose box or refractive indices differ from those of
- *         the set's earlier rows (a set must not mix media);
- *         HETINV_ERROR_SIZE_OVERFLOW; HETINV_ERROR_OUT_OF_MEMORY.
+ *         the set's earlier rows (a set must not mix media), or if the set
+ *         would have more than HETINV_MAX_MEASUREMENT_ROWS rows or
+ *         HETINV_MAX_MEASUREMENT_VALUES values; HETINV_ERROR_OUT_OF_MEMORY.
  */
 HETINV_API hetinv_result_t hetinv_measurements_add(hetinv_measurements_t *set,
                                                    const hetinv_emitter_t *emitter,

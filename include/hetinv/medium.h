@@ -54,17 +54,25 @@ enum hetinv_param_id {
 HETINV_API const char *hetinv_param_name(hetinv_param_t param);
 
 /**
+ * Most voxels of a medium: 2^24 (256³). The medium holds 24 bytes per voxel,
+ * a render's transport grid as much again, and a gradient 24 bytes per
+ * voxel and thread, so this keeps a medium and its renders within a few GB.
+ */
+#define HETINV_MAX_VOXELS (INT32_C(1) << 24)
+
+/**
  * @brief Create a medium filling the box [box_min, box_max] with a grid of
  *        dims[0] × dims[1] × dims[2] voxels.
  * @param ctx the context; the medium must be destroyed before it.
  * @param box_min, box_max corners; every coordinate finite and
  *        box_min[i] < box_max[i]. Read during the call only.
- * @param dims voxel counts, each > 0, whose product (times three parameters
- *        of 8 bytes) fits in size_t. Read during the call only.
+ * @param dims voxel counts, each > 0, whose product is at most
+ *        HETINV_MAX_VOXELS. Read during the call only.
  * @param[out] out receives the medium (uncommitted); NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
  *         HETINV_ERROR_INVALID_ARGUMENT (degenerate or non-finite box,
- *         dimension <= 0); HETINV_ERROR_SIZE_OVERFLOW; HETINV_ERROR_OUT_OF_MEMORY.
+ *         dimension <= 0, more than HETINV_MAX_VOXELS voxels);
+ *         HETINV_ERROR_OUT_OF_MEMORY.
  * Thread-safe.
  */
 HETINV_API hetinv_result_t hetinv_medium_create(hetinv_context_t *ctx, const double box_min[3],

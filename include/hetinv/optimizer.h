@@ -128,6 +128,10 @@ enum hetinv_stop_reason_id {
   HETINV_STOP_CALLBACK = 3     /**< the progress callback asked to stop */
 };
 
+/** Most stages of a schedule. Each stage keeps a copy of its masks (one
+ *  byte per π entry and per measured value), so the schedule stays small. */
+#define HETINV_MAX_STAGES 256
+
 /**
  * @brief One stage of the schedule.
  *
@@ -244,7 +248,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_set_bounds(hetinv_optimizer_t *optim
  * @param stage the stage; its map must fit the initial medium's grid.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
  *         HETINV_ERROR_INVALID_ARGUMENT (size, map of another grid,
- *         negative iterations); HETINV_ERROR_INVALID_STATE;
+ *         negative iterations, a schedule that already has
+ *         HETINV_MAX_STAGES stages); HETINV_ERROR_INVALID_STATE;
  *         HETINV_ERROR_OUT_OF_MEMORY.
  */
 HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimizer,
@@ -265,7 +270,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
  * @param optimizer the optimizer.
  * @param map an identity map of the medium's grid (borrowed).
  * @param layer_thickness h, > 0, in the box's units.
- * @param layers number of layers (stages) to add, ≥ 1.
+ * @param layers number of layers (stages) to add, ≥ 1; with the stages
+ *        already there at most HETINV_MAX_STAGES.
  * @param iterations iterations per stage; 0 = HETINV_OPTIMIZER_ITERATIONS.
  * @return as hetinv_optimizer_add_stage(), plus HETINV_ERROR_INVALID_ARGUMENT
  *         when the set has no pathlength-resolved frontlit row or the map is
@@ -311,10 +317,24 @@ HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optim
  * @brief Restore the state of a checkpoint into an optimizer configured as
  *        the one that wrote it (same set, initial medium, tunables, bounds
  *        and stages); the next hetinv_optimizer_run() continues that run.
+ *
+ * The checkpoint is validated field by field against the optimizer's
+ * configuration, not only by its checksum (which detects damage, not a
+ * stale or crafted file): the stage and iteration counts within the
+ * schedule, the file's exact length for them, π and the averaged iterates
+ * inside the bounds, the method's accumulators finite (and ≥ 0 where they
+ * are means of squares), losses ≥ 0, the estimator's tunables within their
+ * bounds, the base medium's values (the initial medium's where no earlier
+ * stage frees the parameter, inside its bounds where one does).
  * @param optimizer the optimizer; its run must not have started.
- * @param path the checkpoint.
- * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO;
- *         HETINV_ERROR_CORRUPT_FILE (bad magic, truncated, checksum);
+ * @param path the checkpoint: a regular file, no larger than a checkpoint
+ *        of this configuration can be.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_IO (cannot open or read, or not a regular file);
+ *         HETINV_ERROR_CORRUPT_FILE (bad magic, truncated, checksum, too
+ *         large, or a field the configured run cannot have: the message
+ *         names the field, its value and the limit);
+ *         HETINV_ERROR_UNSUPPORTED (another format version or byte order);
  *         HETINV_ERROR_INVALID_ARGUMENT (written by a differently configured
  *         optimizer; the message names what differs);
  *         HETINV_ERROR_INVALID_STATE (run started); HETINV_ERROR_OUT_OF_MEMORY.

@@ -52,6 +52,15 @@ enum hetinv_face_id {
   HETINV_FACE_Z_MAX = 5  /**< z = box_max[2], outward normal +z; coordinates (x, y) */
 };
 
+/** Most pixels of an orthographic sensor: 2^24 (a 4096 × 4096 camera). */
+#define HETINV_MAX_SENSOR_PIXELS (INT32_C(1) << 24)
+/** Most cells of an area emitter's pattern: 2^24 (4096 × 4096). */
+#define HETINV_MAX_PATTERN_CELLS (INT32_C(1) << 24)
+/** Most ideal sources of a combination emitter: 2^20. */
+#define HETINV_MAX_COMBINATION_SOURCES (INT32_C(1) << 20)
+/** Most bins of a pathlength sampling function: 65536. */
+#define HETINV_MAX_PATHLENGTH_BINS 65536
+
 /** Opaque emitter handle (W_i). */
 typedef struct hetinv_emitter hetinv_emitter_t;
 /** Opaque sensor handle (W_o). */
@@ -92,8 +101,9 @@ HETINV_API hetinv_result_t hetinv_emitter_create_ideal(const hetinv_medium_t *me
  * @param direction travel direction, pointing into the face.
  * @param rect_min, rect_max face coordinates (u, v) of the lit rectangle,
  *        inside the face, min < max.
- * @param pattern_width, pattern_height pattern size (> 0); the pattern
- *        covers the rectangle, row 0 at v = rect_min[1].
+ * @param pattern_width, pattern_height pattern size (> 0, product at most
+ *        HETINV_MAX_PATTERN_CELLS); the pattern covers the rectangle, row 0
+ *        at v = rect_min[1].
  * @param pattern pattern_width·pattern_height weights ≥ 0, not all zero,
  *        u fastest; NULL for a uniform rectangle. Copied.
  *        The emitted power (1) is spread over the rectangle in proportion
@@ -129,7 +139,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_diffuse(const hetinv_medium_t *
  * @brief Weighted combination of ideal sources; it emits a total power equal
  *        to the sum of the weights.
  * @param medium gives the box and refractive indices; only read.
- * @param count number of ideal sources (> 0).
+ * @param count number of ideal sources, in [1, HETINV_MAX_COMBINATION_SOURCES].
  * @param origins 3·count coordinates, as for hetinv_emitter_create_ideal().
  * @param directions 3·count components.
  * @param weights count powers ≥ 0, not all zero.
@@ -171,13 +181,15 @@ HETINV_API void hetinv_emitter_destroy(hetinv_emitter_t **emitter);
  *        normal).
  * @param origin face coordinates of pixel (0, 0)'s lower corner.
  * @param pixel_size pixel extent along u and v, each > 0.
- * @param width, height pixel counts, each > 0.
+ * @param width, height pixel counts, each > 0, with width·height at most
+ *        HETINV_MAX_SENSOR_PIXELS.
  * @param[out] out receives the sensor; NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
  *         (face); HETINV_ERROR_INVALID_ARGUMENT (a direction pointing into the
  *         medium or along the face, one no light from inside can take
- *         because η < η_out, non-finite values, non-positive sizes);
- *         HETINV_ERROR_SIZE_OVERFLOW; HETINV_ERROR_OUT_OF_MEMORY. Thread-safe.
+ *         because η < η_out, non-finite values, non-positive sizes, more
+ *         than HETINV_MAX_SENSOR_PIXELS pixels); HETINV_ERROR_OUT_OF_MEMORY.
+ *         Thread-safe.
  */
 HETINV_API hetinv_result_t hetinv_sensor_create_orthographic(
     const hetinv_medium_t *medium, hetinv_face_t face, const double direction[3],
@@ -247,7 +259,7 @@ HETINV_API hetinv_result_t hetinv_pathlength_create_steady(hetinv_context_t *ctx
  * @brief A set of pathlength bins (pathlength decomposition / transient imaging).
  * @param ctx the context.
  * @param window HETINV_WINDOW_BOX or HETINV_WINDOW_GAUSSIAN.
- * @param count number of bins (> 0).
+ * @param count number of bins, in [1, HETINV_MAX_PATHLENGTH_BINS].
  * @param centres count finite bin centres ≥ 0 (geometric length inside the
  *        medium). Copied.
  * @param width bin width (box) or standard deviation (Gaussian), finite and > 0.

@@ -86,7 +86,7 @@ static void fill_parameter(const hetinv_mixture_spec_t *s, const hetinv_medium_t
   const int32_t nx = m->dims[0], ny = m->dims[1], nz = m->dims[2];
   const double use[3] = {s->constant_axis == 0 ? 0.0 : 1.0, s->constant_axis == 1 ? 0.0 : 1.0,
                          s->constant_axis == 2 ? 0.0 : 1.0};
-  double lowest = INFINITY, highest = -INFINITY;
+  double lowest = (double)INFINITY, highest = -(double)INFINITY;
 #pragma omp parallel for num_threads(m->ctx->thread_count) schedule(static) \
     reduction(min : lowest) reduction(max : highest)
   for (int32_t iz = 0; iz < nz; ++iz) {

@@ -34,10 +34,10 @@ HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *in
                    "alloc_fn and free_fn must both be set or both be NULL (alloc_fn is %s, free_fn is %s)",
                    opts.alloc_fn ? "set" : "NULL", opts.free_fn ? "set" : "NULL");
   }
-  if (opts.thread_count < 0) {
+  if (opts.thread_count < 0 || opts.thread_count > HETINV_MAX_THREADS) {
     return HV_FAIL(NULL, HETINV_ERROR_INVALID_ARGUMENT,
-                   "thread_count is %d; it must be >= 0 (0 means all available)",
-                   (int)opts.thread_count);
+                   "thread_count is %d; it must be in [0, HETINV_MAX_THREADS (%d)] "
+                   "(0 means all available)", (int)opts.thread_count, HETINV_MAX_THREADS);
   }
   hetinv_context_t proto = {
       .alloc_fn = opts.alloc_fn,
@@ -51,6 +51,7 @@ HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *in
   if (proto.thread_count == 0) {
 #ifdef _OPENMP
     proto.thread_count = omp_get_max_threads();
+    if (proto.thread_count > HETINV_MAX_THREADS) proto.thread_count = HETINV_MAX_THREADS;
 #else
     proto.thread_count = 1;
 #endif

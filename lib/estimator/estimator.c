@@ -18,7 +18,8 @@ static const struct {
     [HETINV_ESTIMATOR_ROULETTE_WEIGHT] = {"HETINV_ESTIMATOR_ROULETTE_WEIGHT", 0, 1, 1e-4, false},
     [HETINV_ESTIMATOR_ROULETTE_SURVIVAL] = {"HETINV_ESTIMATOR_ROULETTE_SURVIVAL", 1e-6, 1, 0.1, false},
     [HETINV_ESTIMATOR_MIN_SCATTERING] = {"HETINV_ESTIMATOR_MIN_SCATTERING", 0, 1e9, 0, true},
-    [HETINV_ESTIMATOR_MAX_SCATTERING] = {"HETINV_ESTIMATOR_MAX_SCATTERING", 0, 1e9, 0, true},
+    [HETINV_ESTIMATOR_MAX_SCATTERING] = {"HETINV_ESTIMATOR_MAX_SCATTERING", 0, 1e9,
+                                        HETINV_ESTIMATOR_DEFAULT_MAX_SCATTERING, true},
     [HETINV_ESTIMATOR_STREAM] = {"HETINV_ESTIMATOR_STREAM", 0, 65535, 0, true},
     [HETINV_ESTIMATOR_EPOCH] = {"HETINV_ESTIMATOR_EPOCH", 0, 9007199254740992.0 /* 2^53 */, 0, true},
 };
@@ -104,7 +105,8 @@ HETINV_API hetinv_result_t hetinv_estimator_get_stats(const hetinv_estimator_t *
   HV_CHECK_NULL(estimator->ctx, stats);
   if (stats->size < HV_STATS_V1_SIZE) {
     return HV_FAIL(estimator->ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "stats->size is %zu; it must be at least %zu (sizeof(hetinv_render_stats_t))",
+                   "stats->size is %zu; it must be at least %zu (the first version of "
+                   "hetinv_render_stats_t; set it to sizeof(hetinv_render_stats_t))",
                    stats->size, (size_t)HV_STATS_V1_SIZE);
   }
   if (!estimator->has_stats) {

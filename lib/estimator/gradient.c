@@ -154,6 +154,7 @@ static void reduce_item(void *self, int64_t item, int thread) {
   const hv_pass_t *pass = g->pass;
   hv_grad_tally_t *gt = &g->grads[thread];
   int32_t b = (int32_t)(item % pass->batches);
+  hv_grad_fold_extinction(gt); /* σs is complete from here on */
   if (g->var != NULL) {
     /* This batch's mean, in π space, enters its emitter's error. */
     double n = hv_pass_batch_size(pass, b);
@@ -223,7 +224,8 @@ static hetinv_result_t run_gradient(const hv_pass_t *pass, const hetinv_param_ma
   gradient_t g = {.pass = pass, .map = map, .k = hetinv_param_map_size(map)};
   g.records.ctx = ctx;
   g.voxels = (size_t)pass->grid.n[0] * (size_t)pass->grid.n[1] * (size_t)pass->grid.n[2];
-  int threads = pass->threads;
+  /* Per thread: 3 doubles, a byte and an index per voxel (hv_grad_tally_t). */
+  int threads = hv_pass_thread_count(pass, g.voxels * (3 * sizeof(double) + 1 + sizeof(int64_t)));
   g.tallies = hv_calloc(ctx, (size_t)threads, sizeof *g.tallies);
   g.grads = hv_calloc(ctx, (size_t)threads, sizeof *g.grads);
   g.total = hv_calloc(ctx, 3 * g.voxels, sizeof(double));

@@ -90,6 +90,7 @@ static void fill_stats(hetinv_estimator_t *est, const forward_t *f) {
     st->escaped_std_error[face] = sqrt(var[HV_STAT_ESCAPED + face]) / emitters;
   }
   st->truncated = total[HV_STAT_TRUNCATED] / norm;
+  st->truncated_paths = (uint64_t)total[HV_STAT_TRUNCATED_PATHS]; /* exact below 2^53 */
   st->seconds = hv_now_seconds() - pass->start_seconds;
   est->has_stats = true;
 }
@@ -180,7 +181,8 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
                                double *std_errors, double *ballistic, size_t count) {
   const hetinv_context_t *ctx = pass->ctx;
   forward_t f = {.pass = pass};
-  f.tallies = hv_calloc(ctx, (size_t)pass->threads, sizeof *f.tallies);
+  int threads = hv_pass_thread_count(pass, count * sizeof(double) * (ballistic ? 2 : 1));
+  f.tallies = hv_calloc(ctx, (size_t)threads, sizeof *f.tallies);
   f.total = hv_calloc(ctx, count, sizeof(double));
   f.mean_sum = hv_calloc(ctx, count, sizeof(double));
   f.mean_sq = hv_calloc(ctx, count, sizeof(double));
@@ -190,7 +192,7 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
   f.stats_mean_sq = hv_calloc(ctx, (size_t)pass->plans.count, sizeof *f.stats_mean_sq);
   bool ok = f.tallies && f.total && f.mean_sum && f.mean_sq && (!ballistic || f.ballistic) &&
             f.stats_sum && f.stats_mean_sum && f.stats_mean_sq;
-  for (int t = 0; ok && t < pass->threads; ++t) {
+  for (int t = 0; ok && t < threads; ++t) {
     f.tallies[t].values = hv_calloc(ctx, count, sizeof(double));
     if (ballistic) f.tallies[t].ballistic = hv_calloc(ctx, count, sizeof(double));
     ok = f.tallies[t].values && (!ballistic || f.tallies[t].ballistic);
@@ -198,7 +200,7 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
   hetinv_result_t r = HETINV_SUCCESS;
   if (ok) {
     hv_batch_loop_t loop = {(int64_t)(pass->emitter_hi - pass->emitter_lo) * pass->batches,
-                            pass->threads, &f, run_item, reduce_item};
+                            threads, &f, run_item, reduce_item};
     hv_batches_run(&loop);
   } else {
     r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
@@ -215,7 +217,7 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
     }
     fill_stats(est, &f);
   }
-  release(ctx, &f, pass->threads);
+  release(ctx, &f, threads);
   return r;
 }
 

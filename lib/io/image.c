@@ -152,6 +152,12 @@ HETINV_API hetinv_result_t hetinv_image_create(hetinv_context_t *ctx, int32_t wi
                    "%d x %d pixels of %d channels of float overflow size_t", (int)width,
                    (int)height, (int)channel_count);
   }
+  if (floats > (size_t)HETINV_MAX_IMAGE_VALUES) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "%d x %d pixels of %d channels are %zu floats; at most HETINV_MAX_IMAGE_VALUES (%lld)",
+                   (int)width, (int)height, (int)channel_count, floats,
+                   (long long)HETINV_MAX_IMAGE_VALUES);
+  }
   return hv_image_alloc(ctx, width, height, channel_count, out);
 }
 

@@ -90,9 +90,12 @@ HETINV_API hetinv_result_t hetinv_medium_create(hetinv_context_t *ctx, const dou
       return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "dims[%d] (n%c) is %d; it must be > 0",
                      i, axis[i], (int)dims[i]);
     }
-    if (!hv_mul_size(voxels, (size_t)dims[i], &voxels)) {
-      return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%d x %d x %d voxels overflow size_t",
-                     (int)dims[0], (int)dims[1], (int)dims[2]);
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (!hv_mul_size(voxels, (size_t)dims[i], &voxels) || voxels > (size_t)HETINV_MAX_VOXELS) {
+      return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                     "dims is %d x %d x %d voxels; at most HETINV_MAX_VOXELS (%ld) in all",
+                     (int)dims[0], (int)dims[1], (int)dims[2], (long)HETINV_MAX_VOXELS);
     }
   }
   size_t bytes;

@@ -43,7 +43,7 @@ static void voxel_layers(const hetinv_medium_t *m, const bool lit[6], double h, 
     for (int32_t y = 0; y < m->dims[1]; ++y) {
       for (int32_t x = 0; x < m->dims[0]; ++x, ++v) {
         int32_t idx[3] = {x, y, z};
-        double depth = INFINITY;
+        double depth = (double)INFINITY;
         for (int f = 0; f < 6; ++f) {
           if (!lit[f]) continue;
           int a = hv_face_axis(f);
@@ -97,7 +97,11 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_layerwise_stages(hetinv_optimize
   if (!(layer_thickness > 0.0) || !isfinite(layer_thickness)) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "layer_thickness is %g; it must be > 0", layer_thickness);
   }
-  if (layers < 1) return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "layers is %d; it must be >= 1", (int)layers);
+  if (layers < 1 || layers > HETINV_MAX_STAGES - optimizer->stage_count) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "layers is %d; it must be >= 1 and, with the %d stages already there, at most "
+                   "HETINV_MAX_STAGES (%d)", (int)layers, (int)optimizer->stage_count, HETINV_MAX_STAGES);
+  }
   if (iterations < 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "iterations is %d; it must be >= 0", (int)iterations);
   }

@@ -53,7 +53,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
   opt->set = set;
   for (int p = 0; p < HETINV_OPTIMIZER_PARAM_COUNT_; ++p) opt->param[p] = PARAMS[p].def;
   opt->lo[HETINV_PARAM_SIGMA_A] = opt->lo[HETINV_PARAM_SIGMA_S] = 0.0;
-  opt->hi[HETINV_PARAM_SIGMA_A] = opt->hi[HETINV_PARAM_SIGMA_S] = INFINITY;
+  opt->hi[HETINV_PARAM_SIGMA_A] = opt->hi[HETINV_PARAM_SIGMA_S] = (double)INFINITY;
   opt->lo[HETINV_PARAM_G] = -0.99;
   opt->hi[HETINV_PARAM_G] = 0.99;
   hetinv_result_t r = hetinv_medium_clone(initial, &opt->initial);
@@ -205,6 +205,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
   }
   if (optimizer->started) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "cannot add a stage: the run has started");
+  }
+  if (optimizer->stage_count >= HETINV_MAX_STAGES) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "the schedule already has %d stages, HETINV_MAX_STAGES", (int)optimizer->stage_count);
   }
   if (optimizer->stage_count == optimizer->stage_capacity) {
     int32_t cap = optimizer->stage_capacity ? 2 * optimizer->stage_capacity : 4;

@@ -36,7 +36,9 @@ static bool stage_done(const hetinv_optimizer_t *opt) {
   const hv_stage_t *st = &opt->stages[opt->stage];
   if (opt->stage_iteration >= st->iterations) return true;
   int64_t w = (int64_t)opt->param[HETINV_OPTIMIZER_PLATEAU_WINDOW];
-  if (w == 0 || opt->stage_iteration < 2 * w) return false;
+  /* The history holds every iteration (a resumed state is checked so);
+   * the guard keeps the window inside it regardless. */
+  if (w == 0 || opt->stage_iteration < 2 * w || opt->loss_count < (size_t)(2 * w)) return false;
   const double *l = opt->losses + opt->loss_count - 2 * w;
   double before = 0.0, last = 0.0;
   for (int64_t i = 0; i < w; ++i) {

@@ -143,6 +143,11 @@ HETINV_API hetinv_result_t hetinv_emitter_create_combination(const hetinv_medium
   if (count <= 0) {
     return HV_FAIL(medium->ctx, HETINV_ERROR_INVALID_ARGUMENT, "count is %d; it must be > 0", (int)count);
   }
+  if (count > HETINV_MAX_COMBINATION_SOURCES) {
+    return HV_FAIL(medium->ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "count is %d; at most HETINV_MAX_COMBINATION_SOURCES (%ld)", (int)count,
+                   (long)HETINV_MAX_COMBINATION_SOURCES);
+  }
   hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
   hetinv_result_t r = new_emitter(medium, HV_EMITTER_COMBINATION, &e);
   if (r == HETINV_SUCCESS) r = alloc_beams(e, count);
@@ -194,10 +199,11 @@ HETINV_API hetinv_result_t hetinv_emitter_create_area(
   hetinv_result_t r = hv_check_face(ctx, face);
   if (r != HETINV_SUCCESS) return r;
   if (pattern_width <= 0 || pattern_height <= 0 ||
-      (int64_t)pattern_width * pattern_height > INT32_MAX) {
+      (int64_t)pattern_width * pattern_height > HETINV_MAX_PATTERN_CELLS) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "the pattern is %d x %d; each size must be > 0 and the product < 2^31",
-                   (int)pattern_width, (int)pattern_height);
+                   "the pattern is %d x %d; each size must be > 0 and the product at most "
+                   "HETINV_MAX_PATTERN_CELLS (%ld)",
+                   (int)pattern_width, (int)pattern_height, (long)HETINV_MAX_PATTERN_CELLS);
   }
   hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
   r = new_emitter(medium, HV_EMITTER_AREA, &e);

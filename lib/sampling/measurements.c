@@ -83,13 +83,19 @@ HETINV_API hetinv_result_t hetinv_measurements_add(hetinv_measurements_t *set,
                    "from those of %s; a measurement set must not mix media", odd,
                    set->row_count > 0 ? "the set's earlier rows" : "the row's emitter");
   }
-  if (set->row_count == INT32_MAX) {
-    return HV_FAIL(set->ctx, HETINV_ERROR_SIZE_OVERFLOW, "the set already has 2^31 - 1 rows");
+  if (set->row_count >= HETINV_MAX_MEASUREMENT_ROWS) {
+    return HV_FAIL(set->ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "the set already has %d rows, HETINV_MAX_MEASUREMENT_ROWS", (int)set->row_count);
   }
-  size_t n, total;
-  if (!hv_mul_size((size_t)hetinv_sensor_pixel_count(sensor), (size_t)pathlength->count, &n) ||
-      (total = set->value_count + n) < n) {
-    return HV_FAIL(set->ctx, HETINV_ERROR_SIZE_OVERFLOW, "the set's value count overflows");
+  /* pixels ≤ 2^24 and bins ≤ 2^16: the product fits in size_t, and so
+   * does the sum with a value count ≤ 2^26. */
+  size_t n = (size_t)hetinv_sensor_pixel_count(sensor) * (size_t)pathlength->count;
+  size_t total = set->value_count + n;
+  if (total > (size_t)HETINV_MAX_MEASUREMENT_VALUES) {
+    return HV_FAIL(set->ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "the row's %d pixels x %d bins would give the set %zu values; at most "
+                   "HETINV_MAX_MEASUREMENT_VALUES (%lld)", (int)hetinv_sensor_pixel_count(sensor),
+                   (int)pathlength->count, total, (long long)HETINV_MAX_MEASUREMENT_VALUES);
   }
   if (set->row_count == set->row_capacity) {
     int32_t cap = set->row_capacity ? (set->row_capacity > INT32_MAX / 2 ? INT32_MAX : 2 * set->row_capacity) : 16;

@@ -65,6 +65,11 @@ HETINV_API hetinv_result_t hetinv_pathlength_create_bins(hetinv_context_t *ctx,
   if (count <= 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "count is %d; it must be > 0", (int)count);
   }
+  if (count > HETINV_MAX_PATHLENGTH_BINS) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "count is %d; at most HETINV_MAX_PATHLENGTH_BINS (%d)", (int)count,
+                   HETINV_MAX_PATHLENGTH_BINS);
+  }
   if (!isfinite(width) || !(width > 0.0)) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "width is %g; it must be finite and > 0", width);
   }

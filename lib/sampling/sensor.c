@@ -86,8 +86,10 @@ HETINV_API hetinv_result_t hetinv_sensor_create_orthographic(
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "the sensor is %d x %d pixels; each must be > 0",
                    (int)width, (int)height);
   }
-  if ((int64_t)width * height > INT32_MAX) {
-    return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%d x %d pixels exceed 2^31 - 1", (int)width, (int)height);
+  if ((int64_t)width * height > HETINV_MAX_SENSOR_PIXELS) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "width x height is %d x %d pixels; at most HETINV_MAX_SENSOR_PIXELS (%ld) in all",
+                   (int)width, (int)height, (long)HETINV_MAX_SENSOR_PIXELS);
   }
   hetinv_sensor_t *s = NULL;
   hetinv_result_t r = new_sensor(medium, HV_SENSOR_ORTHOGRAPHIC, face, &s);

@@ -8,27 +8,35 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
   *out = (hv_grid_t){0};
   out->ctx = medium->ctx;
   size_t n = medium->voxel_count;
-  out->sigma_t = hv_calloc(medium->ctx, n, sizeof(double));
-  out->albedo = hv_calloc(medium->ctx, n, sizeof(double));
-  if (out->sigma_t == NULL || out->albedo == NULL) {
+  size_t faces = (size_t)medium->dims[0] + (size_t)medium->dims[1] + (size_t)medium->dims[2] + 3;
+  size_t voxel_bytes = 0, face_bytes = 0;
+  /* Every entry is written below: no need to zero them first. */
+  if (hv_mul_size(n, sizeof *out->voxel, &voxel_bytes)) out->voxel = hv_alloc(medium->ctx, voxel_bytes);
+  if (hv_mul_size(faces, sizeof(double), &face_bytes)) out->face_storage = hv_alloc(medium->ctx, face_bytes);
+  if (out->voxel == NULL || out->face_storage == NULL) {
     hv_grid_release(out);
     return HV_FAIL(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY,
                    "cannot allocate the tracking grid of %zu voxels", n);
   }
   const double *sa = medium->values[HETINV_PARAM_SIGMA_A], *ss = medium->values[HETINV_PARAM_SIGMA_S];
+  const double *g = medium->values[HETINV_PARAM_G];
   for (size_t i = 0; i < n; ++i) {
-    out->sigma_t[i] = sa[i] + ss[i];
-    out->albedo[i] = out->sigma_t[i] > 0.0 ? ss[i] / out->sigma_t[i] : 0.0;
+    double st = sa[i] + ss[i];
+    out->voxel[i] = (hv_voxel_t){.sigma_t = st,
+                                 .inv_sigma_t = 1.0 / st,
+                                 .albedo = st > 0.0 ? ss[i] / st : 0.0,
+                                 .g = g[i]};
   }
-  out->g = medium->values[HETINV_PARAM_G];
+  const hv_voxel_t *v0 = &out->voxel[0];
   out->uniform = 1;
-  out->inv_sigma_t = 1.0 / out->sigma_t[0];
+  out->inv_sigma_t = v0->inv_sigma_t;
   for (size_t i = 1; i < n && out->uniform; ++i) {
-    out->uniform = out->sigma_t[i] == out->sigma_t[0] && out->albedo[i] == out->albedo[0] &&
-                   out->g[i] == out->g[0];
+    out->uniform = out->voxel[i].sigma_t == v0->sigma_t && out->voxel[i].albedo == v0->albedo &&
+                   out->voxel[i].g == v0->g;
   }
   out->sigma_s = ss;
   int64_t stride = 1;
+  double *face = out->face_storage;
   for (int a = 0; a < 3; ++a) {
     out->lo[a] = medium->box_min[a];
     out->hi[a] = medium->box_max[a];
@@ -37,6 +45,10 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
     out->inv_h[a] = out->n[a] / (out->hi[a] - out->lo[a]);
     out->stride[a] = stride;
     stride *= out->n[a];
+    for (int32_t i = 0; i < out->n[a]; ++i) face[i] = out->lo[a] + (double)i * out->h[a];
+    face[out->n[a]] = out->hi[a];
+    out->face[a] = face;
+    face += out->n[a] + 1;
   }
   out->eta = medium->eta;
   out->eta_out = medium->eta_out;
@@ -44,7 +56,8 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
 }
 
 void hv_grid_release(hv_grid_t *grid) {
-  hv_free(grid->ctx, grid->sigma_t);
-  hv_free(grid->ctx, grid->albedo);
-  grid->sigma_t = grid->albedo = NULL;
+  hv_free(grid->ctx, grid->voxel);
+  hv_free(grid->ctx, grid->face_storage);
+  grid->voxel = NULL;
+  grid->face_storage = NULL;
 }

@@ -42,12 +42,57 @@ typedef struct hv_path_log {
   hv_log_entry_t *entries;
   size_t count, capacity;
   double cum; /* splat weight so far */
+  bool scored; /* a splat was made: without one, every entry's share is 0 */
   const hetinv_context_t *ctx;
   bool out_of_memory;
 } hv_path_log_t;
 
-void hv_path_log_add(hv_path_log_t *log, hv_log_kind_t kind, int64_t voxel, double value);
-void hv_path_log_add_ray(hv_path_log_t *log, const double p[3], const double d[3], double length);
+/* Doubles the log's room (out of line: rare); false, and the log marked,
+ * if memory ran out. */
+bool hv_path_log_grow(hv_path_log_t *log);
+
+/* Room for one more entry; false if memory ran out. */
+static inline bool hv_path_log_reserve(hv_path_log_t *log) {
+  return log->count < log->capacity || hv_path_log_grow(log);
+}
+
+/* Inline: the gradient pass logs one entry per voxel crossing. */
+static inline void hv_path_log_add(hv_path_log_t *log, hv_log_kind_t kind, int64_t voxel,
+                                   double value) {
+  if (!hv_path_log_reserve(log)) return;
+  hv_log_entry_t *e = &log->entries[log->count++];
+  e->kind = kind;
+  e->cum = log->cum;
+  e->u.at.voxel = voxel;
+  e->u.at.value = value;
+}
+/* A straight segment not yet split into voxels. */
+static inline void hv_path_log_add_ray(hv_path_log_t *log, const double p[3], const double d[3],
+                                       double length) {
+  if (!hv_path_log_reserve(log)) return;
+  hv_log_entry_t *e = &log->entries[log->count++];
+  e->kind = HV_LOG_RAY;
+  e->cum = log->cum;
+  for (int i = 0; i < 3; ++i) {
+    e->u.ray.p[i] = p[i];
+    e->u.ray.d[i] = d[i];
+  }
+  e->u.ray.length = length;
+  e->u.ray.scatter = 0.0;
+}
+
+/* A vertex entry whose voxel is found from its position only if needed. */
+static inline void hv_path_log_add_at(hv_path_log_t *log, hv_log_kind_t kind, const double p[3],
+                                      double value) {
+  if (!hv_path_log_reserve(log)) return;
+  hv_log_entry_t *e = &log->entries[log->count++];
+  e->kind = kind;
+  e->cum = log->cum;
+  e->u.at.voxel = -1;
+  e->u.at.value = value;
+  for (int i = 0; i < 3; ++i) e->u.at.p[i] = p[i];
+}
+
 /* Puts the σs score of the scattering vertex that ends the last RAY entry
  * into that entry (same running total: no splat happens in between). */
 static inline void hv_path_log_set_ray_scatter(hv_path_log_t *log, double value) {
@@ -55,13 +100,12 @@ static inline void hv_path_log_set_ray_scatter(hv_path_log_t *log, double value)
     log->entries[log->count - 1].u.ray.scatter = value;
   }
 }
-/* A vertex entry whose voxel is found from its position only if needed. */
-void hv_path_log_add_at(hv_path_log_t *log, hv_log_kind_t kind, const double p[3], double value);
 void hv_path_log_release(hv_path_log_t *log);
 
 static inline void hv_path_log_reset(hv_path_log_t *log) {
   log->count = 0;
   log->cum = 0.0;
+  log->scored = false;
 }
 
 

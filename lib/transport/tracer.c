@@ -79,6 +79,7 @@ static void score(const hv_plan_t *plan, const hv_sensor_target_t *t, hv_tally_t
   for (int32_t i = 0; i < t->row_count; ++i) {
     const hv_row_target_t *row = &plan->rows[t->first_row + i];
     if (tally->grad) {
+      log->scored = true;
       log->cum += value * hv_pathlength_dot(row->pathlength, tau,
                                             tally->grad->cotangent + row->offset + pixel, row->pixels);
     } else {
@@ -150,6 +151,7 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
       hv_grad_add(gt, HETINV_PARAM_G, hv_vertex_voxel(grid, vertex),
                   hv_phase_dlog_dg(phase, cos_theta) * chain->cum);
       gt->path.cum += chain->cum;
+      gt->path.scored = true;
     }
   }
 }
@@ -199,11 +201,13 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
   return 1;
 }
 
-/* The photon loop proper; hv_trace_photon wraps it with the score log. */
+/* The photon loop proper; hv_trace_photon wraps it with the score log.
+ * It is inlined twice, with grad a constant: the forward pass's free
+ * flights then carry no test for a log at each voxel crossing. */
 HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t *plan,
-                                          hv_rng_t *rng, hv_tally_t *tally) {
+                                          hv_rng_t *rng, hv_tally_t *tally, const bool grad) {
   const hv_grid_t *grid = tr->grid;
-  hv_path_log_t *plog = tally->grad ? &tally->grad->path : NULL;
+  hv_path_log_t *plog = grad ? &tally->grad->path : NULL;
   hv_launch_t launch;
   hv_emitter_sample(plan->emitter, rng, &launch);
 
@@ -237,12 +241,14 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
       continue;
     }
     ++scatterings;
-    double albedo = grid->albedo[r.k];
+    const hv_voxel_t *vx = &grid->voxel[r.k];
+    double albedo = vx->albedo;
     absorbed += w * (1.0 - albedo);
     w *= albedo;
     if (!(w > 0.0)) break; /* a purely absorbing voxel */
     if (tr->max_scattering > 0 && scatterings > tr->max_scattering) {
       tally->stats[HV_STAT_TRUNCATED] += w;
+      tally->stats[HV_STAT_TRUNCATED_PATHS] += 1.0;
       break;
     }
     if (plog) {
@@ -252,7 +258,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
         hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
       }
     }
-    hv_phase_t phase = {HV_PHASE_HG, grid->g[r.k]};
+    hv_phase_t phase = {HV_PHASE_HG, vx->g};
     if (scatterings >= tr->min_scattering) {
       for (int32_t i = 0; i < plan->ortho_count; ++i) {
         connect_sensor(tr, plan, &plan->ortho[i], &r, r.d, w, phase, tau, tally);
@@ -281,7 +287,12 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
 HV_TARGET_CLONES_X86_64_V3
 void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
   hv_grad_tally_t *gt = tally->grad;
-  if (gt) hv_path_log_reset(&gt->path);
-  trace(tr, plan, rng, tally);
-  if (gt) hv_grad_apply_log(gt, tr->grid, &gt->path);
+  if (gt) {
+    hv_path_log_reset(&gt->path);
+    trace(tr, plan, rng, tally, true);
+    /* Most paths never reach a sensor: every entry's share is then 0. */
+    if (gt->path.scored) hv_grad_apply_log(gt, tr->grid, &gt->path);
+  } else {
+    trace(tr, plan, rng, tally, false);
+  }
 }

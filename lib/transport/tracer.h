@@ -17,7 +17,8 @@ enum hv_stat {
   HV_STAT_ABSORBED = 1,
   HV_STAT_ESCAPED = 2, /* 6 slots, one per face */
   HV_STAT_TRUNCATED = 8,
-  HV_STAT_COUNT = 9
+  HV_STAT_TRUNCATED_PATHS = 9, /* a count of paths, not a power */
+  HV_STAT_COUNT = 10
 };
 
 typedef struct hv_tracer {
@@ -51,13 +52,24 @@ static inline void hv_grad_add(hv_grad_tally_t *gt, int param, int64_t voxel, do
   }
 }
 
-/* Adds amount to both σa and σs of voxel: a segment's transmittance score. */
+/* A segment's transmittance score: amount belongs to both σa and σs of
+ * voxel. It is added to the σa block only, which receives nothing else;
+ * hv_grad_fold_extinction adds that block to σs once per batch. One store
+ * per voxel crossing instead of two, in one array instead of two. */
 static inline void hv_grad_add_extinction(hv_grad_tally_t *gt, int64_t voxel, double amount) {
   gt->grad[(size_t)voxel] += amount;
-  gt->grad[gt->voxels + (size_t)voxel] += amount;
   if (!gt->touched[voxel]) {
     gt->touched[voxel] = 1;
     gt->touched_list[gt->touched_count++] = voxel;
+  }
+}
+
+/* Completes σs of the touched voxels with their extinction scores (the σa
+ * block); call once, after the batch's photons and before reading σs. */
+static inline void hv_grad_fold_extinction(hv_grad_tally_t *gt) {
+  for (size_t i = 0; i < gt->touched_count; ++i) {
+    size_t v = (size_t)gt->touched_list[i];
+    gt->grad[gt->voxels + v] += gt->grad[v];
   }
 }
 

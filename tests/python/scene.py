@@ -57,7 +57,7 @@ def c_reference():
 
 def bits(values):
     """The exact bytes of a sequence of doubles, for bitwise comparison."""
-    values = list(values)
+    values = list(hetinv.flat(values))  # numpy grids and π are shaped; bits in C order
     return struct.pack("<%dd" % len(values), *values)
 
 

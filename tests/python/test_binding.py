@@ -4,6 +4,8 @@ borrows alive, the pure-Python array path works, .vol files round-trip."""
 import array
 import gc
 import os
+import subprocess
+import sys
 import tempfile
 import unittest
 
@@ -82,6 +84,46 @@ class Errors(unittest.TestCase):
         m.close()
         with self.assertRaisesRegex(ValueError, "closed Medium"):
             m.fill(0, 0, 0)
+
+
+class LibrarySearch(unittest.TestCase):
+    """Without HETINV_LIBRARY the package finds the library through
+    pkg-config, and says where it looked when it finds none."""
+
+    def run_import(self, pc_dir):
+        env = {k: v for k, v in os.environ.items()
+               if k not in ("HETINV_LIBRARY", "LD_LIBRARY_PATH", "PKG_CONFIG_PATH")}
+        env["PKG_CONFIG_PATH"] = env["PKG_CONFIG_LIBDIR"] = pc_dir  # no system .pc files
+        return subprocess.run([sys.executable, "-c", "import hetinv; print(hetinv.library_path)"],
+                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              universal_newlines=True)
+
+    def setUp(self):
+        import ctypes.util
+
+        if ctypes.util.find_library("hetinv") or any(
+                os.path.exists(os.path.join(d, hetinv._lib.SONAME))
+                for d in hetinv._lib.COMMON_LIBDIRS):
+            self.skipTest("a libhetinv is installed on this system: it would be found first")
+
+    def test_found_through_pkg_config(self):
+        libdir = os.path.dirname(os.path.realpath(hetinv.library_path))
+        with tempfile.TemporaryDirectory() as d:
+            with open(os.path.join(d, "hetinv.pc"), "w") as f:
+                f.write("prefix=/nowhere\nlibdir=%s\n\nName: hetinv\nDescription: test\n"
+                        "Version: %s\nLibs: -L${libdir} -lhetinv\n" % (libdir, hetinv.version()))
+            r = self.run_import(d)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stdout.strip(), os.path.join(libdir, "libhetinv.so.0"))
+
+    def test_not_found_lists_where_it_looked(self):
+        with tempfile.TemporaryDirectory() as d:
+            r = self.run_import(d)
+        self.assertNotEqual(r.returncode, 0)
+        self.assertIn("ImportError: hetinv: cannot load libhetinv", r.stderr)
+        for place in ["ctypes.util.find_library: nothing found", "pkg-config libdir: nothing found",
+                      "the dynamic loader (LD_LIBRARY_PATH)"] + list(hetinv._lib.COMMON_LIBDIRS):
+            self.assertIn(place, r.stderr)
 
 
 class Lifetimes(unittest.TestCase):

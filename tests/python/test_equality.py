@@ -68,7 +68,7 @@ class EqualityWithC(unittest.TestCase):
 
     def check(self, key):
         self.assertIn(key, self.ref, "c_reference printed no %s" % key)
-        ref, got = self.ref[key], list(self.py[key])
+        ref, got = self.ref[key], list(hetinv.flat(self.py[key]))  # C order
         self.assertEqual(len(got), len(ref), key)
         if scene.bits(got) != scene.bits(ref):
             self.fail("%s differs from the C API:\n python %s\n C      %s"

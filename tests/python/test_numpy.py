@@ -1,7 +1,13 @@
-"""numpy is optional: with it, arrays come back as numpy arrays and numpy
-inputs of any shape are read in C order; without it (or switched off)
-array.array. The numpy tests skip when numpy is not importable."""
+"""numpy is optional: with it, arrays come back as numpy arrays shaped like
+the grid they belong to, numpy inputs of any shape are read in C order, and
+float64 C-contiguous arrays cross into C without a copy; without it (or
+switched off) flat array.array. The numpy tests skip when numpy is not
+importable."""
 import array
+import contextlib
+import ctypes
+import os
+import tempfile
 import unittest
 
 import hetinv
@@ -11,6 +17,33 @@ try:
     import numpy as np
 except ImportError:
     np = None
+
+
+@contextlib.contextmanager
+def spy(name, record):
+    """Record the data addresses of the pointer arguments of the C function
+    `name` (hetinv._lib.lib.<name>) while the block runs."""
+    lib = hetinv._lib.lib
+    real = getattr(lib, name)
+
+    def wrapper(*args):
+        record.append([ctypes.cast(a, ctypes.c_void_p).value if isinstance(a, ctypes._Pointer)
+                       else None for a in args])
+        return real(*args)
+
+    setattr(lib, name, wrapper)
+    try:
+        yield record
+    finally:
+        setattr(lib, name, real)
+
+
+def grid_medium(ctx):
+    """nx, ny, nz = 4, 3, 2: no two axes alike, so a transposed shape shows."""
+    m = hetinv.Medium(ctx, (0, 0, 0), (4, 3, 2), (4, 3, 2)).fill(0.1, 5.0, 0.5)
+    m.set_voxel(3, 1, 0, 0.2, 9.0, 0.5)
+    m.set_voxel(0, 2, 1, 0.3, 7.0, 0.25)
+    return m.commit()
 
 
 def render(ctx):
@@ -34,6 +67,22 @@ class WithoutNumpy(unittest.TestCase):
                 self.assertEqual(scene.bits(ms.values), scene.bits(r.values))
                 self.assertIsInstance(ms.mask, array.array)
                 self.assertEqual(ms.mask.typecode, "B")
+                # Without numpy every output is flat, in the library's linear order.
+                g = grid_medium(ctx).grid("sigma_s")
+                self.assertIsInstance(g, array.array)
+                self.assertEqual((len(g), g[3 + 4 * 1], g[0 + 4 * (2 + 3 * 1)]), (24, 9.0, 7.0))
+                self.assertIs(hetinv.flat(g), g)
+                self.assertEqual(list(r.row(6)), list(r.values[15:27]))  # a flat slice
+                self.assertEqual(list(ms.row(r.values, 1)), [r.values[4]])
+                pmap = hetinv.ParamMap.identity(truth, ("sigma_a", "sigma_s"))
+                pi = pmap.extract(truth)
+                self.assertEqual(len(pi), 32)
+                blocks = pmap.split(pi)
+                self.assertEqual(list(blocks), ["sigma_a", "sigma_s"])
+                self.assertEqual(blocks["sigma_s"][1 + 4 * 1], 8.0)
+                grad = hetinv.Estimator(ctx, photons=300).gradient(truth, ms, [1.0] * 27, pmap)
+                self.assertIsInstance(grad.grad, array.array)
+                self.assertEqual(len(grad.grad), 32)
         finally:
             if previous:
                 hetinv.use_numpy(True)
@@ -76,12 +125,194 @@ class WithNumpy(unittest.TestCase):
         m.set_grid("sigma_s", grid)
         self.assertEqual(m.get_voxel(3, 2, 0)[1], 11.0)
         m.set_grid("sigma_a", np.linspace(0, 1, 32)[::2])       # strided
-        self.assertEqual(m.grid("sigma_a")[1], np.linspace(0, 1, 32)[2])
+        self.assertEqual(m.grid("sigma_a")[0, 0, 1], np.linspace(0, 1, 32)[2])
 
     def test_noise_and_vol_with_numpy(self):
         noisy = hetinv.apply_noise(self.ctx, np.full(5, 0.5), seed=1)
         self.assertIsInstance(noisy.values, np.ndarray)
         self.assertEqual(noisy.values.shape, (5,))
+        shaped = hetinv.apply_noise(self.ctx, np.full((1, 5), 0.5), seed=1)
+        self.assertEqual((shaped.values.shape, shaped.std_errors.shape), ((1, 5), (1, 5)))
+        self.assertEqual(shaped.values.tobytes(), noisy.values.tobytes())
+        m = grid_medium(self.ctx)
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "sigma_s.vol")
+            m.write_vol("sigma_s", path)
+            header, data = hetinv.vol_read(self.ctx, path)
+        self.assertEqual((data.shape, data.dtype), ((2, 3, 4, 1), np.float32))
+        self.assertEqual(data[:, :, :, 0].tolist(), m.grid("sigma_s").tolist())
+
+
+@unittest.skipIf(np is None, "numpy is not importable")
+class Shapes(unittest.TestCase):
+    """Per-voxel and per-cell outputs have the grid's shape, C order: the
+    library's linear index ix + nx·(iy + ny·iz) is [iz, iy, ix]."""
+
+    def setUp(self):
+        hetinv.use_numpy(True)
+        self.ctx = hetinv.Context(seed=2, threads=1)
+
+    def tearDown(self):
+        self.ctx.close()
+
+    def test_grid_is_nz_ny_nx(self):
+        m = grid_medium(self.ctx)
+        self.assertEqual((m.dims, m.shape), ((4, 3, 2), (2, 3, 4)))
+        g = m.grid("sigma_s")
+        self.assertEqual((g.shape, g.dtype), ((2, 3, 4), np.float64))
+        self.assertEqual((g[0, 1, 3], g[1, 2, 0]), (9.0, 7.0))
+        self.assertEqual(g.ravel()[3 + 4 * (1 + 3 * 0)], 9.0)
+        for iz in range(2):
+            for iy in range(3):
+                for ix in range(4):
+                    self.assertEqual(m.grid("sigma_a")[iz, iy, ix], m.get_voxel(ix, iy, iz)[0])
+        c = m.clone()
+        c.set_grid("g", g / 10.0)        # a grid goes back in as it came out
+        self.assertEqual(c.get_voxel(3, 1, 0)[2], 0.9)
+        self.assertEqual(hetinv.flat(g).shape, (24,))
+
+    def test_pi_and_gradients_have_the_maps_shape(self):
+        m = grid_medium(self.ctx)
+        maps = {"identity": (hetinv.ParamMap.identity(m, hetinv.FREE_ALL), (3, 2, 3, 4)),
+                "identity_s": (hetinv.ParamMap.identity(m, "sigma_s"), (1, 2, 3, 4)),
+                "coarse": (hetinv.ParamMap.coarse(m, (2, 3, 1), ("sigma_a", "g")), (2, 1, 3, 2)),
+                "broadcast": (hetinv.ParamMap.broadcast(m, 1, "sigma_s"), (1, 2, 1, 4))}
+        for name, (pmap, shape) in maps.items():
+            with self.subTest(name):
+                self.assertEqual(pmap.shape, shape)
+                self.assertEqual(pmap.extract(m).shape, shape)
+                self.assertEqual(pmap.pullback(np.ones((3, 2, 3, 4))).shape, shape)
+        ident = maps["identity"][0]
+        self.assertEqual(ident.params, ("sigma_a", "sigma_s", "g"))
+        pi = ident.extract(m)
+        self.assertEqual((pi[1, 0, 1, 3], pi[2, 1, 2, 0]), (9.0, 0.25))  # [param, iz, iy, ix]
+        for k, p in enumerate(ident.params):
+            self.assertEqual(pi[k].tolist(), m.grid(p).tolist())
+            self.assertTrue(np.shares_memory(ident.split(pi)[p], pi))
+        # A voxel gradient in (3, nz, ny, nx) goes through the identity unchanged.
+        voxel = np.arange(72, dtype=np.float64).reshape(3, 2, 3, 4)
+        self.assertEqual(ident.pullback(voxel).tolist(), voxel.tolist())
+        # The broadcast map's cell (ix, 0, iz) holds the mean along y.
+        flat_y = maps["broadcast"][0].extract(m)
+        self.assertEqual(flat_y[0, 0, 0, 3], (9.0 + 5.0 + 5.0) / 3)
+        # The estimator's gradients come in the same shape.
+        ms = hetinv.Measurements(self.ctx)
+        ms.add(hetinv.Emitter.ideal(m, (2, 1.5, 2.5), (0, 0, -1)),
+               hetinv.Sensor.hemispherical(m, "z_max"))
+        est = hetinv.Estimator(self.ctx, photons=200)
+        for name, (pmap, shape) in maps.items():
+            with self.subTest(name):
+                g = est.gradient(m, ms, [1.0], pmap)
+                self.assertEqual((g.grad.shape, g.std_errors.shape), (shape, shape))
+                ms.set_values([0.1])
+                lg = est.loss_gradient(m, ms, pmap)
+                self.assertEqual((lg.grad.shape, lg.rendered.shape), (shape, (1,)))
+        self.assertEqual(ident.shaped(np.zeros(72)).shape, (3, 2, 3, 4))
+
+    def test_render_rows_are_bins_height_width(self):
+        # A pencil beam enters the top face in pixel (i, j) = (2, 0) of a
+        # 3 × 2 camera on that face: that pixel is the brightest of its row.
+        m = hetinv.Medium(self.ctx, (0, 0, 0), (3, 2, 1), (1, 1, 1)).fill(0.05, 5.0, 0.0)
+        m.set_ior(1.0, 1.0).commit()
+        cam = hetinv.Sensor.orthographic(m, "z_max", (0, 0, 1), (0, 0), (1, 1), 3, 2)
+        ms = hetinv.Measurements(self.ctx)
+        beam = hetinv.Emitter.ideal(m, (2.5, 0.5, 1.5), (0, 0, -1))
+        ms.add(beam, hetinv.Sensor.hemispherical(m, "z_min"))
+        ms.add(beam, cam)
+        ms.add(beam, cam, hetinv.Pathlength.bins(self.ctx, [1, 3, 5, 7], 2))
+        self.assertEqual([ms.row_shape(r) for r in range(3)], [(1, 1, 1), (1, 2, 3), (4, 2, 3)])
+        r = hetinv.Estimator(self.ctx, photons=4000).render(m, ms)
+        self.assertEqual(r.values.shape, (31,))  # flat: rows differ in shape
+        image = r.row(1)
+        self.assertEqual(image.shape, (1, 2, 3))
+        self.assertEqual(np.unravel_index(np.argmax(image), image.shape), (0, 0, 2))
+        self.assertTrue(np.shares_memory(image, r.values))
+        self.assertEqual(image.ravel().tolist(), r.values[1:7].tolist())
+        bins = r.row(2, "std_errors")
+        self.assertEqual(bins.shape, (4, 2, 3))
+        # offset + b·pixels + p, p = j·width + i
+        self.assertEqual(bins[3, 1, 0], r.std_errors[7 + 3 * 6 + 1 * 3 + 0])
+        self.assertEqual(ms.row(r.values, 2).tolist(), r.row(2).tolist())
+        with self.assertRaises(ValueError):
+            r.row(0, "nope")
+        for bad in (3, -1):
+            with self.assertRaises(IndexError):
+                r.row(bad)
+            with self.assertRaises(IndexError):  # OutOfRangeError is an IndexError
+                ms.row(r.values, bad)
+        with self.assertRaises(ValueError):
+            ms.row(r.values[:30], 0)
+
+
+@unittest.skipIf(np is None, "numpy is not importable")
+class ZeroCopy(unittest.TestCase):
+    """float64 C-contiguous inputs reach C as they are, and C writes outputs
+    straight into the arrays returned (the pointers are the arrays' data)."""
+
+    def setUp(self):
+        hetinv.use_numpy(True)
+        self.ctx = hetinv.Context(seed=2, threads=1)
+
+    def tearDown(self):
+        self.ctx.close()
+
+    def test_inputs_are_not_copied(self):
+        m = hetinv.Medium(self.ctx, (0, 0, 0), (4, 3, 2), (4, 3, 2))
+        grid = np.linspace(1.0, 2.0, 24).reshape(2, 3, 4)
+        with spy("medium_set_grid", []) as calls:
+            m.set_grid("sigma_s", grid)
+        self.assertEqual(calls[0][2], grid.ctypes.data)
+        readonly = np.frombuffer(np.full(24, 3.0).tobytes(), dtype=np.float64)
+        self.assertFalse(readonly.flags.writeable)
+        with spy("medium_set_grid", []) as calls:
+            m.set_grid("sigma_s", readonly)   # the library only reads it
+        self.assertEqual(calls[0][2], readonly.ctypes.data)
+        # Another dtype or a strided view is converted (once), and still read in C order.
+        for other in (grid.astype(np.float32), np.linspace(1.0, 2.0, 48)[::2], grid.T):
+            with spy("medium_set_grid", []) as calls:
+                m.set_grid("sigma_a", other)
+            self.assertNotEqual(calls[0][2], other.ctypes.data)
+            self.assertEqual(m.grid("sigma_a").ravel().tolist(),
+                             np.ascontiguousarray(other, dtype=np.float64).ravel().tolist())
+        m.fill(0.1, 5.0, 0.5).commit()
+        pmap = hetinv.ParamMap.identity(m, "sigma_s")
+        pi = pmap.extract(m)
+        c = m.clone()
+        with spy("param_map_apply", []) as calls:
+            pmap.apply(pi, c)
+        self.assertEqual(calls[0][1], pi.ctypes.data)
+        ms = hetinv.Measurements(self.ctx)
+        ms.add(hetinv.Emitter.ideal(m, (2, 1.5, 2.5), (0, 0, -1)),
+               hetinv.Sensor.orthographic(m, "z_max", (0, 0, 1), (0, 0), (1, 1), 4, 3))
+        cotangent = np.ones((1, 3, 4))
+        with spy("estimator_gradient", []) as calls:
+            hetinv.Estimator(self.ctx, photons=100).gradient(m, ms, cotangent, pmap)
+        self.assertEqual(calls[0][3], cotangent.ctypes.data)
+        values = np.full(12, 0.5)
+        with spy("measurements_set_values", []) as calls:
+            ms.set_values(values, values)
+        self.assertEqual(calls[0][1:3], [values.ctypes.data] * 2)
+
+    def test_outputs_are_written_in_place(self):
+        m = grid_medium(self.ctx)
+        ms = hetinv.Measurements(self.ctx)
+        ms.add(hetinv.Emitter.ideal(m, (2, 1.5, 2.5), (0, 0, -1)),
+               hetinv.Sensor.hemispherical(m, "z_max"))
+        est = hetinv.Estimator(self.ctx, photons=100)
+        with spy("estimator_render", []) as calls:
+            r = est.render(m, ms)
+        self.assertEqual(calls[0][3:6], [r.values.ctypes.data, r.std_errors.ctypes.data,
+                                         r.ballistic.ctypes.data])
+        pmap = hetinv.ParamMap.identity(m, hetinv.FREE_ALL)
+        with spy("estimator_gradient", []) as calls:
+            g = est.gradient(m, ms, [1.0], pmap)
+        self.assertEqual(calls[0][6:8], [g.grad.ctypes.data, g.std_errors.ctypes.data])
+        self.assertEqual(g.grad.shape, (3, 2, 3, 4))
+        with spy("param_map_extract", []) as calls:
+            pi = pmap.extract(m)
+        self.assertEqual(calls[0][2], pi.ctypes.data)
+        for a in (r.values, g.grad, pi):
+            self.assertTrue(a.flags.c_contiguous and a.flags.writeable)
 
 
 if __name__ == "__main__":

@@ -165,7 +165,7 @@ static void new_estimator_has_the_documented_defaults(void **state) {
   assert_ok(hetinv_estimator_get_param(est, HETINV_ESTIMATOR_MIN_SCATTERING, &v));
   assert_true(v == 0);
   assert_ok(hetinv_estimator_get_param(est, HETINV_ESTIMATOR_MAX_SCATTERING, &v));
-  assert_true(v == 0);
+  assert_true(v == HETINV_ESTIMATOR_DEFAULT_MAX_SCATTERING);
   assert_ok(hetinv_estimator_get_param(est, HETINV_ESTIMATOR_STREAM, &v));
   assert_true(v == 0);
   assert_ok(hetinv_estimator_get_param(est, HETINV_ESTIMATOR_EPOCH, &v));
@@ -560,8 +560,15 @@ static void get_stats_rejects_a_too_small_size(void **state) {
   stats.size = 0;
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_get_stats(est, &stats));
   assert_message_contains("stats->size is 0");
-  stats.size = sizeof stats - 1;
+  /* The first published struct ended with `truncated`: one byte less is too small. */
+  size_t v1 = offsetof(hetinv_render_stats_t, truncated) + sizeof(double);
+  stats.size = v1 - 1;
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_get_stats(est, &stats));
+  /* A caller compiled against that struct gets it, and nothing after it. */
+  stats.size = v1;
+  stats.truncated_paths = 12345;
+  assert_ok(hetinv_estimator_get_stats(est, &stats));
+  assert_true(stats.size == v1 && stats.truncated_paths == 12345);
   hetinv_estimator_destroy(&est);
   scene_release(&s);
 }

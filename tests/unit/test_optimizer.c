@@ -4,7 +4,8 @@
  * values, minibatch reproducibility, stopping rules and progress,
  * multi-resolution hand-over, checkpoints (a child process killed half-way
  * by SIGKILL, resumed in the parent, compared bitwise with an uninterrupted
- * run; refused configurations; damaged files), layer-wise stages and NULL
+ * run; refused configurations; damaged files; forged files with a valid
+ * checksum, refused field by field), layer-wise stages and NULL
  * arguments.
  *
  * Scenes are a 1 mm cube of 2 x 1 x 2 (or 3 x 1 x 3) voxels, η = 1.3, a few
@@ -17,6 +18,7 @@
 #include <signal.h>
 #include <stdbool.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -1335,6 +1337,286 @@ static void damaged_checkpoints_are_refused(void **state) {
   ht_tmpdir_remove();
 }
 
+/* Forged checkpoints: intact (checksum recomputed) but holding a state
+ * the configured run cannot be in. Each is refused as corrupt, naming the
+ * field, before anything is used or allocated from it. */
+
+/* Offsets of the state fields of a checkpoint of the coarse setup (k = 1,
+ * window 3) stopped after 4 iterations: from the end, checksum, 3 grids of
+ * 4 voxels, 4 losses, their count, the ring (3 x 1), head, count, window,
+ * acc2, acc1, π, k, elapsed, iteration, stage iteration, stage. */
+typedef struct layout {
+  size_t stage, stage_it, it, elapsed, k, pi, acc1, acc2, window, count, head, ring, losses_n, losses, grids;
+  size_t est; /* the estimator's tunables in the fingerprint */
+} layout_t;
+
+static layout_t coarse_layout(size_t len) {
+  layout_t l;
+  l.grids = len - 8 - 3 * 4 * 8;
+  l.losses = l.grids - 4 * 8;
+  l.losses_n = l.losses - 8;
+  l.ring = l.losses_n - 3 * 8;
+  l.head = l.ring - 8;
+  l.count = l.head - 8;
+  l.window = l.count - 8;
+  l.acc2 = l.window - 8;
+  l.acc1 = l.acc2 - 8;
+  l.pi = l.acc1 - 8;
+  l.k = l.pi - 8;
+  l.elapsed = l.k - 8;
+  l.it = l.elapsed - 8;
+  l.stage_it = l.it - 8;
+  l.stage = l.stage_it - 8;
+  l.est = 24 + 8 * (4 + 3 * 64 + HETINV_OPTIMIZER_PARAM_COUNT_ + 2 * HETINV_PARAM_COUNT);
+  return l;
+}
+
+typedef struct forgery {
+  const char *what;   /* in the expected message */
+  size_t *at[3];      /* up to three fields set to the value */
+  bool is_double;
+  uint64_t u;
+  double d;
+} forgery_t;
+
+/* Writes `data` with the forgery applied and the checksum recomputed. */
+static void write_forged(const char *path, const unsigned char *data, size_t len, unsigned char *copy,
+                         const forgery_t *f) {
+  memcpy(copy, data, len);
+  for (int j = 0; j < 3 && f->at[j]; ++j) {
+    if (f->is_double) {
+      memcpy(copy + *f->at[j], &f->d, 8);
+    } else {
+      memcpy(copy + *f->at[j], &f->u, 8);
+    }
+  }
+  uint64_t sum = fnv1a64(copy, len - 8);
+  memcpy(copy + len - 8, &sum, 8);
+  ht_write_file(path, copy, len);
+}
+
+/* Resumes a forged file into a fresh optimizer: true when it is refused as
+ * corrupt with `what` in the message and the optimizer left empty. */
+static bool refused_field(const problem_t *p, const setup_t *s, const char *path, const char *what) {
+  hetinv_optimizer_t *opt = make_optimizer(p, s);
+  hetinv_result_t r = hetinv_optimizer_resume(opt, path);
+  const char *m = hetinv_context_last_error_message(NULL);
+  bool ok = r == HETINV_ERROR_CORRUPT_FILE && strstr(m, what) != NULL && hetinv_optimizer_losses(opt, NULL) == NULL;
+  if (!ok) print_error("forged '%s': resume returned %s (%s)\n", what, hetinv_result_name(r), r ? m : "accepted");
+  hetinv_optimizer_destroy(&opt);
+  return ok;
+}
+
+static void forged_checkpoints_are_refused(void **state) {
+  const problem_t *p = *state;
+  ht_tmpdir_create("optimizer-forged");
+  char good[1024], bad[1024];
+  snprintf(good, sizeof good, "%s", ht_path("good.ckpt"));
+  snprintf(bad, sizeof bad, "%s", ht_path("bad.ckpt"));
+  setup_t s = coarse_setup(p);
+  write_half_way(p, &s, good);
+  size_t len = 0;
+  unsigned char *data = slurp(good, &len);
+  unsigned char *copy = malloc(len);
+  layout_t l = coarse_layout(len);
+  /* The layout is as read here: stage 0, iteration 4 of 4, k 1, window 3
+   * holding 3 iterates with its head at 4 mod 3, 100 photons. */
+  uint64_t u[8];
+  size_t at[] = {l.stage, l.stage_it, l.it, l.k, l.window, l.count, l.head, l.losses_n};
+  for (int i = 0; i < 8; ++i) memcpy(&u[i], data + at[i], 8);
+  assert_true(u[0] == 0 && u[1] == 4 && u[2] == 4 && u[3] == 1 && u[4] == 3 && u[5] == 3 && u[6] == 1 && u[7] == 4);
+  double photons = 0;
+  memcpy(&photons, data + l.est + 8 * HETINV_ESTIMATOR_PHOTONS, 8);
+  assert_true(photons == 100);
+  size_t est_photons = l.est + 8 * HETINV_ESTIMATOR_PHOTONS, sigma_s1 = l.grids + 4 * 8 + 8, sigma_a1 = l.grids + 8;
+  size_t ring1 = l.ring + 8, ring2 = l.ring + 16;
+
+  const forgery_t forged[] = {
+      {"the stage is 1", {&l.stage}, false, 1, 0},
+      {"the stage iteration is 9; stage 0 has 8", {&l.stage_it}, false, 9, 0},
+      {"the stage iteration is 9223372036854775808", {&l.stage_it}, false, UINT64_C(1) << 63, 0},
+      {"the iteration is 3", {&l.it}, false, 3, 0},
+      {"the iteration is 1099511627776", {&l.it, &l.losses_n}, false, UINT64_C(1) << 40, 0},
+      {"bytes; a checkpoint of this run at iteration 5 (stage 0) has", {&l.stage_it, &l.it, &l.losses_n}, false, 5, 0},
+      {"stage 0 has 2 entries", {&l.k}, false, 2, 0},
+      {"the elapsed time is nan", {&l.elapsed}, true, 0, NaN},
+      {"the elapsed time is -1", {&l.elapsed}, true, 0, -1},
+      {"pi[0] is 130442; its bounds are [1, 10]", {&l.pi}, true, 0, 130442},
+      {"pi[0] is 0.5", {&l.pi}, true, 0, 0.5},
+      {"pi[0] is nan", {&l.pi}, true, 0, NaN},
+      {"accumulator 1 of entry 0 is nan", {&l.acc1}, true, 0, NaN},
+      {"accumulator 1 of entry 0 is -1", {&l.acc1}, true, 0, -1},
+      {"accumulator 2 of entry 0 is inf", {&l.acc2}, true, 0, Inf},
+      {"accumulator 2 of entry 0 is -1e-300", {&l.acc2}, true, 0, -1e-300},
+      {"the averaging window is 4", {&l.window}, false, 4, 0},
+      {"the averaging ring holds 2 iterates", {&l.count}, false, 2, 0},
+      {"its head is 0", {&l.head}, false, 0, 0},
+      {"its head is 4611686018427387904", {&l.head}, false, UINT64_C(1) << 62, 0},
+      {"pi[0] (iterate 1 of the averaging ring) is 130442", {&ring1}, true, 0, 130442},
+      {"pi[0] (iterate 2 of the averaging ring) is nan", {&ring2}, true, 0, NaN},
+      {"the loss history has 5 losses", {&l.losses_n}, false, 5, 0},
+      {"loss 0 is -1", {&l.losses}, true, 0, -1},
+      {"loss 0 is nan", {&l.losses}, true, 0, NaN},
+      {"sigma_s of voxel 1 is -1", {&sigma_s1}, true, 0, -1},
+      {"sigma_s of voxel 1 is 7 in stage 0; no earlier stage frees sigma_s, and the initial medium's is 8", {&sigma_s1}, true, 0, 7},
+      {"sigma_a of voxel 1 is 1e+223", {&sigma_a1}, true, 0, 1e223},
+      {"HETINV_ESTIMATOR_PHOTONS is 0", {&est_photons}, true, 0, 0},
+      {"HETINV_ESTIMATOR_PHOTONS is nan", {&est_photons}, true, 0, NaN},
+  };
+  int failures = 0;
+  for (size_t i = 0; i < sizeof forged / sizeof forged[0]; ++i) {
+    write_forged(bad, data, len, copy, &forged[i]);
+    failures += !refused_field(p, &s, bad, forged[i].what);
+  }
+  /* The intact file still resumes. */
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_resume(opt, good));
+  hetinv_optimizer_destroy(&opt);
+
+  /* With a plateau window of 3, a stage iteration of 7 after 4 iterations
+   * in all would make the plateau test read 2 losses before the history. */
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 3));
+  stopper_t st = {.stop_at = 4};
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_ok(hetinv_optimizer_save(opt, good));
+  hetinv_optimizer_destroy(&opt);
+  free(data);
+  data = slurp(good, &len);
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 3));
+  const forgery_t seven = {"the iteration is 4; at iteration 7 of stage 0 it must be in [7, 7]", {&l.stage_it}, false, 7, 0};
+  write_forged(bad, data, len, copy, &seven);
+  if (hetinv_optimizer_resume(opt, bad) == HETINV_SUCCESS) {
+    print_error("forged '%s': accepted; running it:\n", seven.what);
+    hetinv_optimizer_run(opt, p->est, NULL); /* shows the harm (under ASan) */
+    ++failures;
+  } else {
+    assert_message_contains(seven.what);
+  }
+  hetinv_optimizer_destroy(&opt);
+
+  /* In stage 1 of two (coarse, then per voxel), σs was freed by stage 0:
+   * inside its bounds; σa was not: the initial medium's. */
+  setup_t two = two_stage_setup(p);
+  opt = make_optimizer(p, &two);
+  st = (stopper_t){.stop_at = 6};
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_ok(hetinv_optimizer_save(opt, good));
+  hetinv_optimizer_destroy(&opt);
+  free(data);
+  data = slurp(good, &len);
+  free(copy);
+  copy = malloc(len); /* a larger file: 4 entries */
+  size_t grids = len - 8 - 3 * 4 * 8;
+  size_t two_sigma_a0 = grids, two_sigma_s2 = grids + 4 * 8 + 2 * 8;
+  double v = 0;
+  memcpy(&v, data + two_sigma_s2, 8);
+  assert_true(v >= SIGMA_LO && v <= SIGMA_HI && v != START_SIGMA_S); /* the layout is as read here */
+  const forgery_t stage1[] = {
+      {"sigma_s of voxel 2 is 130442; its bounds are [1, 10]", {&two_sigma_s2}, true, 0, 130442},
+      {"sigma_s of voxel 2 is 0.5; its bounds are [1, 10]", {&two_sigma_s2}, true, 0, 0.5},
+      {"sigma_a of voxel 0 is 0.5 in stage 1; no earlier stage frees sigma_a", {&two_sigma_a0}, true, 0, 0.5},
+  };
+  for (size_t i = 0; i < sizeof stage1 / sizeof stage1[0]; ++i) {
+    write_forged(bad, data, len, copy, &stage1[i]);
+    failures += !refused_field(p, &two, bad, stage1[i].what);
+  }
+  opt = make_optimizer(p, &two);
+  assert_ok(hetinv_optimizer_resume(opt, good));
+  hetinv_optimizer_destroy(&opt);
+
+  /* With σs in [1, ∞), π = ∞ is inside the bounds but not a value. */
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, Inf));
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  st.calls = 0;
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_ok(hetinv_optimizer_save(opt, good));
+  hetinv_optimizer_destroy(&opt);
+  free(data);
+  data = slurp(good, &len);
+  const forgery_t infinite = {"pi[0] is inf; its bounds are [1, inf]", {&l.pi}, true, 0, Inf};
+  write_forged(bad, data, len, copy, &infinite);
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, Inf));
+  hetinv_result_t r = hetinv_optimizer_resume(opt, bad);
+  if (r != HETINV_ERROR_CORRUPT_FILE) {
+    print_error("forged '%s': resume returned %s\n", infinite.what, hetinv_result_name(r));
+    ++failures;
+  } else {
+    assert_message_contains(infinite.what);
+  }
+  hetinv_optimizer_destroy(&opt);
+  free(copy);
+  free(data);
+  ht_tmpdir_remove();
+  assert_int_equal(failures, 0);
+}
+
+/* The base-medium check does not refuse a real run: after a coarse stage
+ * that interpolates (2 x 1 x 2 cells over 3 x 1 x 3 voxels), a checkpoint of
+ * the next stage resumes. */
+static void interpolated_base_media_resume(void **state) {
+  (void)state;
+  problem_t p;
+  problem_init(&p, 5, 3, 3, 2, false);
+  ht_tmpdir_create("optimizer-interpolated");
+  char path[1024];
+  snprintf(path, sizeof path, "%s", ht_path("stage1.ckpt"));
+  hetinv_param_map_t *coarse = NULL;
+  assert_ok(hetinv_param_map_create_coarse(p.initial, (int32_t[]){2, 1, 2}, SS, &coarse));
+  setup_t s = {.stages = 2, .maps = {coarse, p.identity}, .iterations = {3, 3}, .method = HETINV_METHOD_ADADELTA,
+               .minibatch = 0, .window = 3, .interval = 1};
+  hetinv_optimizer_t *opt = make_optimizer(&p, &s);
+  stopper_t st = {.stop_at = 4};
+  assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &st));
+  assert_ok(hetinv_optimizer_run(opt, p.est, NULL));
+  assert_int_equal(st.last.stage, 1);
+  assert_ok(hetinv_optimizer_save(opt, path));
+  hetinv_optimizer_destroy(&opt);
+  opt = make_optimizer(&p, &s);
+  assert_ok(hetinv_optimizer_resume(opt, path));
+  hetinv_optimizer_destroy(&opt);
+  hetinv_param_map_destroy(&coarse);
+  ht_tmpdir_remove();
+  problem_release(&p);
+}
+
+/* Only regular files are read, and none larger than the configured run
+ * can write. */
+static void only_regular_checkpoint_files_are_read(void **state) {
+  const problem_t *p = *state;
+  ht_tmpdir_create("optimizer-notfile");
+  setup_t s = coarse_setup(p);
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  /* A directory (ftell would report LLONG_MAX). */
+  assert_result(HETINV_ERROR_IO, hetinv_optimizer_resume(opt, ht_path(".")));
+  assert_message_contains("not a regular file");
+  /* A sparse 64 GiB file: refused from its size, before anything is
+   * allocated or read. */
+  char big[1024], fifo[1024];
+  snprintf(big, sizeof big, "%s", ht_path("big.ckpt"));
+  FILE *f = fopen(big, "wb");
+  assert_non_null(f);
+  assert_int_equal(ftruncate(fileno(f), (off_t)1 << 36), 0);
+  fclose(f);
+  assert_result(HETINV_ERROR_CORRUPT_FILE, hetinv_optimizer_resume(opt, big));
+  assert_message_contains("68719476736 bytes; a checkpoint of this run has at most");
+  unlink(big);
+  /* A FIFO (whose open would wait for a writer). */
+  snprintf(fifo, sizeof fifo, "%s", ht_path("fifo.ckpt"));
+  assert_int_equal(mkfifo(fifo, 0600), 0);
+  assert_result(HETINV_ERROR_IO, hetinv_optimizer_resume(opt, fifo));
+  assert_message_contains("not a regular file");
+  unlink(fifo);
+  assert_null(hetinv_optimizer_losses(opt, NULL));
+  hetinv_optimizer_destroy(&opt);
+  ht_tmpdir_remove();
+}
+
 /* ------------------------------------------------------------------------ */
 /* 8. Layer-wise stages (Fig. 2(b)). */
 
@@ -1547,6 +1829,9 @@ int main(void) {
       cmocka_unit_test(killed_runs_resume_bitwise),
       cmocka_unit_test(resume_refuses_another_configuration),
       cmocka_unit_test(damaged_checkpoints_are_refused),
+      cmocka_unit_test(forged_checkpoints_are_refused),
+      cmocka_unit_test(only_regular_checkpoint_files_are_read),
+      cmocka_unit_test(interpolated_base_media_resume),
       cmocka_unit_test(layerwise_errors),
       cmocka_unit_test(layerwise_stages_free_one_layer_each),
       cmocka_unit_test(null_arguments_are_refused),

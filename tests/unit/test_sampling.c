@@ -733,15 +733,17 @@ static void orthographic_sensor_rejects_overflowing_pixel_counts(void **state) {
   hetinv_medium_t *m = make_medium(*state, 1, 1);
   const double d[3] = {0, 0, 1}, o[2] = {0, 0}, px[2] = {1, 1};
   hetinv_sensor_t *s = sensor_sentinel();
-  assert_result(HETINV_ERROR_SIZE_OVERFLOW,
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT,
                 hetinv_sensor_create_orthographic(m, HETINV_FACE_Z_MAX, d, o, px, 65536, 32768, &s));
-  assert_message_contains("65536 x 32768 pixels exceed 2^31 - 1");
+  assert_message_contains("65536 x 32768 pixels; at most HETINV_MAX_SENSOR_PIXELS (16777216)");
   assert_null(s);
-  assert_result(HETINV_ERROR_SIZE_OVERFLOW,
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT,
                 hetinv_sensor_create_orthographic(m, HETINV_FACE_Z_MAX, d, o, px, INT32_MAX, 2, &s));
-  /* The largest count that fits is allowed (a sensor allocates no pixels). */
-  assert_ok(hetinv_sensor_create_orthographic(m, HETINV_FACE_Z_MAX, d, o, px, INT32_MAX, 1, &s));
-  assert_int_equal(hetinv_sensor_pixel_count(s), INT32_MAX);
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT,
+                hetinv_sensor_create_orthographic(m, HETINV_FACE_Z_MAX, d, o, px, 4097, 4096, &s));
+  /* The bound itself is allowed (a sensor allocates no pixels). */
+  assert_ok(hetinv_sensor_create_orthographic(m, HETINV_FACE_Z_MAX, d, o, px, 4096, 4096, &s));
+  assert_int_equal(hetinv_sensor_pixel_count(s), HETINV_MAX_SENSOR_PIXELS);
   hetinv_sensor_destroy(&s);
   hetinv_medium_destroy(&m);
 }

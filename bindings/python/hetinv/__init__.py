@@ -2,9 +2,12 @@
 scattering with a differentiable Monte Carlo renderer.
 
 The library is found through the HETINV_LIBRARY environment variable (a
-path), else ctypes.util.find_library("hetinv"), else "libhetinv.so.0".
-Arrays come back as numpy arrays when numpy is importable, else as
-array.array; any sequence of numbers is accepted as input.
+path), else ctypes.util.find_library("hetinv"), else pkg-config's libdir
+of hetinv, else the usual prefixes, else "libhetinv.so.0" through the
+dynamic loader (see _lib.py; the ImportError lists where it looked).
+Arrays come back as numpy arrays when numpy is importable, shaped like
+their grid (medium grids (nz, ny, nx), π and gradients ParamMap.shape),
+else as flat array.array; any sequence of numbers is accepted as input.
 """
 from ._lib import lib as _clib, path as library_path
 from ._errors import (
@@ -21,7 +24,7 @@ from ._errors import (
     UnsupportedError,
     error_for,
 )
-from ._arrays import numpy_available, numpy_enabled, use_numpy
+from ._arrays import flat, numpy_available, numpy_enabled, use_numpy
 from ._names import (
     FACE_X_MAX, FACE_X_MIN, FACE_Y_MAX, FACE_Y_MIN, FACE_Z_MAX, FACE_Z_MIN,
     FREE_ALL, FREE_G, FREE_SIGMA_A, FREE_SIGMA_S,
@@ -39,7 +42,7 @@ from .estimator import Estimator, Gradient, LossGradient, Render, estimator_para
 from .optimizer import Optimizer, Progress, optimizer_param_bounds
 from .acquire import Noisy, apply_noise
 
-__version__ = "0.1.0"
+__version__ = "0.1.0"  # the library version this package is written for (pyproject.toml reads it)
 
 
 def version():

@@ -1,9 +1,15 @@
 """Arrays in and out: numpy when it is importable, array.array otherwise.
 
 Inputs may be any sequence of numbers, an array.array or a numpy array (of
-any shape: it is read in C order). Outputs are numpy arrays when numpy is
-available and enabled, else array.array('d') (or 'f' / 'B'). use_numpy(False)
-switches numpy off, e.g. to test the pure-Python path.
+any shape: it is read in C order). A numpy array that already has the C
+type and is C-contiguous is passed to the library as it is, without a copy;
+any other array is converted once. Outputs are numpy arrays when numpy is
+available and enabled, else array.array('d') (or 'f' / 'B'). The library
+writes its outputs straight into the returned array's buffer; per-voxel and
+per-cell outputs are then reshaped (a view, no copy) to the grid's shape,
+e.g. (nz, ny, nx): C order, so .ravel() is the library's linear order, x
+fastest. array.array outputs are always flat. use_numpy(False) switches
+numpy off, e.g. to test the pure-Python path.
 """
 import array
 import ctypes
@@ -82,12 +88,34 @@ def to_c(values, typecode="d", count=None, name="values"):
     return CArray(ptr, n, keep)
 
 
-def empty(count, typecode="d"):
-    """A zeroed output array of `count` items and a pointer to its data."""
+def is_numpy(values):
+    return _np is not None and isinstance(values, _np.ndarray)
+
+
+def flat(values):
+    """`values` in linear order: a 1-D view of a numpy array (a copy only if
+    it is not contiguous), anything else as it is. Gives code that indexes
+    outputs flat one spelling for both the numpy and the array.array path."""
+    if _np is not None and isinstance(values, _np.ndarray):
+        return values.reshape(-1)
+    return values
+
+
+def shaped(values, shape):
+    """A numpy array reshaped to `shape` (a view); anything else as it is."""
+    if shape is not None and _np is not None and isinstance(values, _np.ndarray):
+        return values.reshape(shape)
+    return values
+
+
+def empty(count, typecode="d", shape=None):
+    """A zeroed output array of `count` items and a pointer to its data. With
+    numpy, the array is reshaped to `shape` (if given) after the pointer is
+    taken: the pointer addresses the same buffer, in C order."""
     ctype = _CTYPE[typecode]
     if _enabled:
         arr = _np.zeros(count, dtype=_NPTYPE[typecode])
-        return arr, arr.ctypes.data_as(ctypes.POINTER(ctype))
+        return shaped(arr, shape), arr.ctypes.data_as(ctypes.POINTER(ctype))
     arr = array.array(typecode, bytes(ctypes.sizeof(ctype) * count))
     if count == 0:
         return arr, ctypes.cast((ctype * 1)(), ctypes.POINTER(ctype))
@@ -95,9 +123,10 @@ def empty(count, typecode="d"):
                             ctypes.POINTER(ctype))
 
 
-def copy_from(ptr, count, typecode="d"):
-    """A new output array holding a copy of `count` items at `ptr`."""
-    out, dst = empty(count, typecode)
+def copy_from(ptr, count, typecode="d", shape=None):
+    """A new output array holding a copy of `count` items at `ptr` (memory
+    the library owns and may change or free: never handed out as a view)."""
+    out, dst = empty(count, typecode, shape)
     if count:
         ctypes.memmove(dst, ptr, count * ctypes.sizeof(_CTYPE[typecode]))
     return out

@@ -159,24 +159,58 @@ PROTOTYPES = {
 }
 
 
+#: Where an installed libhetinv usually is, tried after pkg-config.
+COMMON_LIBDIRS = ("/usr/local/lib", "/usr/local/lib64", "/usr/local/lib/x86_64-linux-gnu",
+                  "/usr/lib/x86_64-linux-gnu", "/usr/lib64", "/usr/lib")
+SONAME = "libhetinv.so.0"  # SOVERSION 0 (CMakeLists.txt)
+
+
+def _pkg_config_libdir():
+    """`pkg-config --variable=libdir hetinv` (honours PKG_CONFIG_PATH), or
+    None if pkg-config or hetinv.pc is not there."""
+    import subprocess
+
+    try:
+        out = subprocess.run(["pkg-config", "--variable=libdir", "hetinv"], stdout=subprocess.PIPE,
+                             stderr=subprocess.DEVNULL, timeout=10, check=True)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    libdir = out.stdout.decode(errors="replace").strip()
+    return os.path.normpath(libdir) if libdir else None  # hetinv.pc says ${pcfiledir}/../..
+
+
 def _candidates():
+    """(what, name or path) to try, in order; each is loaded lazily, so
+    pkg-config only runs when the earlier ones failed."""
     env = os.environ.get("HETINV_LIBRARY")
     if env:
-        return [env]  # an explicit choice is never second-guessed
-    found = ctypes.util.find_library("hetinv")
-    return [c for c in (found, "libhetinv.so.0", "libhetinv.so") if c]
+        yield "HETINV_LIBRARY", env  # an explicit choice is never second-guessed
+        return
+    yield "ctypes.util.find_library", ctypes.util.find_library("hetinv")
+    libdir = _pkg_config_libdir()
+    yield "pkg-config libdir", os.path.join(libdir, SONAME) if libdir else None
+    for d in COMMON_LIBDIRS:
+        yield d, os.path.join(d, SONAME)
+    yield "the dynamic loader (LD_LIBRARY_PATH)", SONAME
 
 
 def _load():
-    errors = []
-    for name in _candidates():
+    tried = []
+    for what, name in _candidates():
+        if name is None:
+            tried.append("%s: nothing found" % what)
+            continue
+        if os.path.isabs(name) and not os.path.exists(name) and what != "HETINV_LIBRARY":
+            tried.append("%s: no %s" % (what, name))
+            continue
         try:
             return ctypes.CDLL(name), name
         except OSError as e:
-            errors.append("%s: %s" % (name, e))
+            tried.append("%s: %s" % (what, e))
     raise ImportError("hetinv: cannot load libhetinv (set HETINV_LIBRARY to the path of "
-                      "libhetinv.so, or install it where the dynamic loader finds it); tried "
-                      + "; ".join(errors))
+                      "libhetinv.so, or install libhetinv where ctypes.util.find_library, "
+                      "pkg-config (PKG_CONFIG_PATH) or the dynamic loader finds it). Looked at:\n  "
+                      + "\n  ".join(tried))
 
 
 class _Declared:

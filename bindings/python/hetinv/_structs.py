@@ -117,6 +117,7 @@ class RenderStats(_Sized):
         ("escaped", _d6),
         ("escaped_std_error", _d6),
         ("truncated", ctypes.c_double),
+        ("truncated_paths", ctypes.c_uint64),
     ]
 
 

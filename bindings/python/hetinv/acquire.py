@@ -16,15 +16,17 @@ def apply_noise(ctx, clean, model=None, **fields):
     """What a camera records for `clean` values under the Hasinoff affine
     noise model: Noisy(values, std_errors, exposure). model: a NoiseModel,
     or its fields as keywords over the library defaults (e.g. seed=3,
-    read_noise=2.0)."""
+    read_noise=2.0). With numpy, values and std_errors have the shape of a
+    numpy `clean` (flat for any other input)."""
     from .context import Context
     from .medium import _spec
 
     cp = handle_arg(ctx, Context, "ctx")
     model = _spec(model, fields, NoiseModel, "model")
     c = _arrays.to_c(clean, "d", name="clean")
-    noisy, pn = _arrays.empty(c.count)
-    errors, pe = _arrays.empty(c.count)
+    shape = clean.shape if _arrays.is_numpy(clean) else None
+    noisy, pn = _arrays.empty(c.count, "d", shape)
+    errors, pe = _arrays.empty(c.count, "d", shape)
     exposure = ctypes.c_double()
     check(lib.noise_apply(cp, ctypes.byref(model), c.ptr, pn, pe, c.count,
                           ctypes.byref(exposure)))

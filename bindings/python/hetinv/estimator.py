@@ -3,16 +3,41 @@ import ctypes
 from collections import namedtuple
 
 from . import _arrays
-from ._args import number
+from ._args import integer, number
 from ._errors import check
 from ._handle import Handle, handle_arg, pinned
 from ._lib import lib
 from ._names import ESTIMATOR_PARAMS, lookup
 from ._structs import RenderStats
 
-Render = namedtuple("Render", "values std_errors ballistic")
+
+class Render(namedtuple("Render", "values std_errors ballistic")):
+    """What Estimator.render returns. values, std_errors and ballistic are
+    flat, one item per value of the measurement set (rows one after the
+    other, as the set lays them out); row(r) is one row's values shaped
+    (bins, height, width) with numpy, the way the sensor sees them."""
+
+    _rows = ()  # [(offset, shape)] of each row, set by Estimator.render
+
+    def row(self, row, which="values"):
+        """Row `row` of `which` ("values", "std_errors" or "ballistic"): with
+        numpy a view of shape (bins, height, width), else a flat slice."""
+        if which not in self._fields:
+            raise ValueError("which: expected one of %s, got %r" % (self._fields, which))
+        row = integer(row, "row")
+        if not 0 <= row < len(self._rows):
+            raise IndexError("row %d: the rendered set has %d rows" % (row, len(self._rows)))
+        offset, shape = self._rows[row]
+        count = shape[0] * shape[1] * shape[2]
+        return _arrays.shaped(getattr(self, which)[offset:offset + count], shape)
+
+
 Gradient = namedtuple("Gradient", "grad std_errors")
+Gradient.__doc__ = """grad and std_errors: one item per π entry, shaped param_map.shape
+(free parameters, cz, cy, cx) with numpy."""
 LossGradient = namedtuple("LossGradient", "loss grad rendered")
+LossGradient.__doc__ = """loss, grad (shaped param_map.shape with numpy) and the rendered
+values (flat, like Render.values)."""
 
 
 def estimator_param_bounds(param):
@@ -30,6 +55,7 @@ class Estimator(Handle):
 
         est = hetinv.Estimator(ctx, photons=20000)
         r = est.render(medium, measurements)   # r.values, r.std_errors, r.ballistic
+        r.row(0)                               # row 0, shaped (bins, height, width)
     """
 
     _destroy_name = "estimator_destroy"
@@ -65,18 +91,22 @@ class Estimator(Handle):
         values, pv = _arrays.empty(n)
         errors, pe = _arrays.empty(n)
         ballistic, pb = _arrays.empty(n)
+        rows = measurements._row_layouts()
         with pinned(self, medium, measurements):
             check(lib.estimator_render(self._ptr, mp, sp, pv, pe, pb, n))
-        return Render(values, errors, ballistic)
+        r = Render(values, errors, ballistic)
+        r._rows = rows
+        return r
 
     def gradient(self, medium, measurements, cotangent, param_map):
-        """Σ_n cotangent[n]·∂I_n/∂π: Gradient(grad, std_errors)."""
+        """Σ_n cotangent[n]·∂I_n/∂π: Gradient(grad, std_errors), each shaped
+        param_map.shape with numpy. cotangent: value_count values, any shape."""
         mp, sp = _inputs(medium, measurements)
         pm = _map(param_map)
         c = _arrays.to_c(cotangent, "d", measurements.value_count, "cotangent")
         k = param_map.size
-        grad, pg = _arrays.empty(k)
-        errors, pe = _arrays.empty(k)
+        grad, pg = _arrays.empty(k, "d", param_map.shape)
+        errors, pe = _arrays.empty(k, "d", param_map.shape)
         with pinned(self, medium, measurements, param_map):
             check(lib.estimator_gradient(self._ptr, mp, sp, c.ptr, c.count, pm, pg, pe, k))
         return Gradient(grad, errors)
@@ -89,7 +119,7 @@ class Estimator(Handle):
         k, n = param_map.size, measurements.value_count
         loss = ctypes.c_double()
         rendered, pr = _arrays.empty(n)  # value_count values: the C function is not told n
-        grad, pg = _arrays.empty(k)
+        grad, pg = _arrays.empty(k, "d", param_map.shape)
         with pinned(self, medium, measurements, param_map):
             check(lib.estimator_loss_gradient(self._ptr, mp, sp, pm, ctypes.byref(loss), pr, pg, k))
         return LossGradient(loss.value, grad, rendered)

@@ -27,6 +27,7 @@ class Measurements(Handle):
         super().__init__(h, [ctx])
         self.context = ctx
         self._optimizers = weakref.WeakSet()  # the optimizers made for this set
+        self._sizes = []  # (width, height) of each row's sensor, for row_shape
 
     def add(self, emitter, sensor, pathlength=None):
         """Append a row; returns its index. pathlength None: a steady-state
@@ -52,6 +53,7 @@ class Measurements(Handle):
                 raise RuntimeError("cannot add a row to a measurement set a running render uses")
             check(lib.measurements_add(me, ep, sp, pp, ctypes.byref(row)))
         self._borrow(emitter, sensor, pathlength)
+        self._sizes.append(sensor.size)
         return row.value
 
     @property
@@ -72,6 +74,34 @@ class Measurements(Handle):
                                           ctypes.byref(px),
                                           ctypes.byref(bins)))
         return off.value, px.value, bins.value
+
+    def _offset_shape(self, row):
+        offset, pixels, bins = self.layout(row)
+        width, height = self._sizes[row]
+        if width * height != pixels:  # cannot happen: rows are added through add()
+            raise RuntimeError("row %d: sensor %d x %d, layout %d pixels" % (row, width, height,
+                                                                               pixels))
+        return offset, (bins, height, width)
+
+    def row_shape(self, row):
+        """(bins, height, width) of a row: the numpy shape of its values, so
+        that value [b, j, i] is pixel (i, j) (index j·width + i) in bin b."""
+        return self._offset_shape(row)[1]
+
+    def _row_layouts(self):
+        """[(offset, (bins, height, width))] of every row."""
+        return [self._offset_shape(r) for r in range(self.row_count)]
+
+    def row(self, values, row):
+        """Row `row` of `values` (value_count items, e.g. self.values or a
+        render's values): with numpy a view of shape row_shape(row), else a
+        flat slice."""
+        values = _arrays.flat(values)
+        offset, shape = self._offset_shape(row)
+        if len(values) != self.value_count:
+            raise ValueError("values: expected %d values, got %d" % (self.value_count,
+                                                                   len(values)))
+        return _arrays.shaped(values[offset:offset + shape[0] * shape[1] * shape[2]], shape)
 
     def set_values(self, values, std_errors=None):
         v = _arrays.to_c(values, "d", name="values")

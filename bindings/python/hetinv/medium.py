@@ -24,7 +24,9 @@ class Medium(Handle):
 
     Create, set values (each validated), commit(); a committed medium is
     immutable (clone() it to change it). Grids are in linear voxel order,
-    x fastest.
+    x fastest: voxel (ix, iy, iz) is item ix + nx·(iy + ny·iz). With numpy,
+    grid() returns an array of shape (nz, ny, nx) (self.shape), so
+    grid[iz, iy, ix] is that voxel and grid.ravel() the linear order.
     """
 
     _destroy_name = "medium_destroy"
@@ -83,11 +85,14 @@ class Medium(Handle):
         return self
 
     def grid(self, param):
-        """A copy of one parameter of every voxel, in linear voxel order."""
+        """A copy of one parameter of every voxel: with numpy an array of
+        shape (nz, ny, nx), indexed [iz, iy, ix]; else a flat array.array in
+        linear voxel order (x fastest). A copy, because the medium owns the
+        values (and a medium that is not committed may still change them)."""
         ptr = lib.medium_grid(self._ptr, param_id(param))
         if not ptr:  # the library returns NULL without a message for an unknown param
             raise OutOfRangeError("hetinv_medium_grid: unknown parameter %r" % (param,))
-        return _arrays.copy_from(ptr, self.voxel_count, "d")
+        return _arrays.copy_from(ptr, self.voxel_count, "d", self.shape)
 
     def commit(self):
         check(lib.medium_commit(self._ptr))
@@ -102,6 +107,12 @@ class Medium(Handle):
         d = (ctypes.c_int32 * 3)()
         check(lib.medium_get_dims(self._ptr, d))
         return tuple(d)
+
+    @property
+    def shape(self):
+        """(nz, ny, nx): the numpy shape of a grid (dims reversed)."""
+        nx, ny, nz = self.dims
+        return nz, ny, nx
 
     @property
     def voxel_count(self):
@@ -171,10 +182,13 @@ def vol_read_header(ctx, path):
 
 
 def vol_read(ctx, path):
-    """(VolHeader, float32 values in file order: ((z·ny + y)·nx + x)·channels + c)."""
+    """(VolHeader, float32 values in file order: ((z·ny + y)·nx + x)·channels + c).
+    With numpy the values have shape (nz, ny, nx, channels); else they are a
+    flat array.array('f')."""
     header = vol_read_header(ctx, path)
-    n = header.dims[0] * header.dims[1] * header.dims[2] * header.channels
-    data, ptr = _arrays.empty(n, "f")
+    nx, ny, nz = header.dims
+    n = nx * ny * nz * header.channels
+    data, ptr = _arrays.empty(n, "f", (nz, ny, nx, header.channels))
     check(lib.vol_read(_ctx(ctx), _path(path), ctypes.byref(header), ptr, n))
     return header, data
 

@@ -20,6 +20,18 @@ class ParamMap(Handle):
 
     `free` is a mask (hetinv.FREE_ALL, FREE_SIGMA_S, ...), a parameter name
     or a list of them, e.g. ("sigma_a", "sigma_s").
+
+    π is parameter-major: one block per free parameter (in the order σa, σs,
+    g: self.params), each block the map's cells in linear order, x fastest.
+    With numpy, every π the binding returns (extract, pullback, the
+    estimator's gradients) has shape self.shape = (free parameters, cz, cy,
+    cx), the map's own grid with dims (cx, cy, cz) reversed: the medium's
+    grid for an identity map, coarse_dims for a coarse map, the grid with
+    the broadcast axis of length 1 for a broadcast map. pi[k, iz, iy, ix] is
+    cell (ix, iy, iz) of free parameter self.params[k]; pi.ravel() is the
+    library's order, and split(pi) names the blocks. Without numpy π is a
+    flat array.array. Inputs (apply's π, pullback's voxel gradient) may have
+    any shape and are read in C order.
     """
 
     _destroy_name = "param_map_destroy"
@@ -71,6 +83,35 @@ class ParamMap(Handle):
         check(lib.param_map_get_dims(self._ptr, d))
         return tuple(d)
 
+    @property
+    def params(self):
+        """Names of the free parameters, in π's block order, e.g. ("sigma_s",)."""
+        mask = self.free_mask
+        return tuple(n for n, bit in (("sigma_a", 1), ("sigma_s", 2), ("g", 4)) if mask & bit)
+
+    @property
+    def shape(self):
+        """(free parameters, cz, cy, cx): the numpy shape of π."""
+        cx, cy, cz = self.dims
+        return len(self.params), cz, cy, cx
+
+    def shaped(self, pi):
+        """`pi` (any π of this map, e.g. Optimizer.get_pi()) as a numpy array
+        of shape self.shape; without numpy, as it is."""
+        return _arrays.shaped(pi, self.shape)
+
+    def split(self, pi):
+        """{parameter name: its block of `pi`}: with numpy, views of shape
+        (cz, cy, cx); without, flat slices."""
+        n = len(self.params)
+        if _arrays.is_numpy(pi):
+            blocks = pi.reshape(self.shape)
+            return {p: blocks[k] for k, p in enumerate(self.params)}
+        if len(pi) != self.size:
+            raise ValueError("pi: expected %d values, got %d" % (self.size, len(pi)))
+        cells = self.size // n
+        return {p: pi[k * cells:(k + 1) * cells] for k, p in enumerate(self.params)}
+
     def entry(self, index):
         """(parameter id, cell) of π entry `index`."""
         p, c = ctypes.c_int32(), ctypes.c_size_t()
@@ -86,17 +127,19 @@ class ParamMap(Handle):
         return medium
 
     def extract(self, medium):
-        """π from a medium (cell averages for coarse and broadcast maps)."""
+        """π from a medium (cell averages for coarse and broadcast maps),
+        shaped self.shape with numpy."""
         mp = _medium(medium)
         n = self.size
-        out, ptr = _arrays.empty(n)
+        out, ptr = _arrays.empty(n, "d", self.shape)
         check(lib.param_map_extract(self._ptr, mp, ptr, n))
         return out
 
     def pullback(self, voxel_grad):
-        """∂/∂π from 3·V voxel gradients (σa of every voxel, then σs, then g)."""
+        """∂/∂π (shaped self.shape with numpy) from 3·V voxel gradients (σa
+        of every voxel, then σs, then g: e.g. an array of shape (3, nz, ny, nx))."""
         g = _arrays.to_c(voxel_grad, "d", 3 * self._voxel_count, "voxel_grad")
         n = self.size
-        out, ptr = _arrays.empty(n)
+        out, ptr = _arrays.empty(n, "d", self.shape)
         check(lib.param_map_pullback(self._ptr, g.ptr, ptr, n))
         return out

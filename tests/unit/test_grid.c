@@ -1,0 +1,288 @@
+/* Exact regular tracking (lib/transport/grid.h) against a brute-force
+ * reference: every face crossing of a straight ray found axis by axis and
+ * sorted. A free flight must end where the reference's optical depth
+ * reaches the sampled depth, and log one segment per voxel crossed, of the
+ * reference's length, in the reference's voxel (the gradient's scores
+ * need exactly these). Heterogeneous grids with vacuum voxels, random rays
+ * and rays along the axes on voxel faces (a pencil beam's first flight).
+ * Runs in well under a second. */
+#include <math.h>
+#include <stdbool.h>
+#include <stdlib.h>
+
+#include "test_support.h"
+
+#include "medium/medium_internal.h"
+#include "sampling/geometry.h"
+#include "transport/grid.h"
+
+enum { NX = 7, NY = 5, NZ = 6, RAYS = 4000, MAX_SEG = 64 };
+
+static const double LO[3] = {-1.0, 0.25, 2.0}, HI[3] = {2.5, 1.5, 3.2};
+
+/* splitmix64: reproducible draws without the library's generator. */
+static uint64_t next_u64(uint64_t *s) {
+  uint64_t z = (*s += UINT64_C(0x9e3779b97f4a7c15));
+  z = (z ^ (z >> 30)) * UINT64_C(0xbf58476d1ce4e5b9);
+  z = (z ^ (z >> 27)) * UINT64_C(0x94d049bb133111eb);
+  return z ^ (z >> 31);
+}
+
+static double uniform(uint64_t *s) { return (double)(next_u64(s) >> 11) * 0x1p-53; }
+
+typedef struct fixture {
+  hetinv_context_t *ctx;
+  hetinv_medium_t *medium;
+  hv_grid_t grid;
+} fixture_t;
+
+/* σa, σs random per voxel, one voxel in seven a vacuum. */
+static void fixture_make(fixture_t *f, uint64_t *seed) {
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  assert_ok(hetinv_context_create(&init, &f->ctx));
+  const int32_t dims[3] = {NX, NY, NZ};
+  assert_ok(hetinv_medium_create(f->ctx, LO, HI, dims, &f->medium));
+  size_t n = NX * NY * NZ;
+  double sa[NX * NY * NZ], ss[NX * NY * NZ];
+  for (size_t i = 0; i < n; ++i) {
+    bool vacuum = next_u64(seed) % 7 == 0;
+    sa[i] = vacuum ? 0.0 : 0.1 + 2.0 * uniform(seed);
+    ss[i] = vacuum ? 0.0 : 0.1 + 8.0 * uniform(seed);
+  }
+  assert_ok(hetinv_medium_fill(f->medium, 1.0, 1.0, 0.3));
+  assert_ok(hetinv_medium_set_grid(f->medium, HETINV_PARAM_SIGMA_A, sa, n));
+  assert_ok(hetinv_medium_set_grid(f->medium, HETINV_PARAM_SIGMA_S, ss, n));
+  assert_ok(hetinv_medium_commit(f->medium));
+  assert_ok(hv_grid_build(f->medium, &f->grid));
+  assert_false(f->grid.uniform);
+}
+
+static void fixture_free(fixture_t *f) {
+  hv_grid_release(&f->grid);
+  hetinv_medium_destroy(&f->medium);
+  hetinv_context_destroy(&f->ctx);
+}
+
+typedef struct seg {
+  int64_t k;
+  double length;
+} seg_t;
+
+/* The voxels the ray p + t·d (0 <= t <= t_max, inside the box) crosses, by
+ * sorting every face crossing; zero-length pieces dropped. */
+static int reference_segments(const hv_grid_t *g, const double p[3], const double d[3],
+                              double t_max, seg_t out[MAX_SEG]) {
+  double ts[3 * 16 + 2];
+  int n = 0;
+  ts[n++] = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0.0) continue;
+    for (int i = 0; i <= g->n[a]; ++i) {
+      double t = (g->face[a][i] - p[a]) / d[a];
+      if (t > 0.0 && t < t_max) ts[n++] = t;
+    }
+  }
+  ts[n++] = t_max;
+  for (int i = 1; i < n; ++i) { /* insertion sort: a few dozen values */
+    for (int j = i; j > 0 && ts[j] < ts[j - 1]; --j) {
+      double x = ts[j];
+      ts[j] = ts[j - 1];
+      ts[j - 1] = x;
+    }
+  }
+  int count = 0;
+  for (int i = 1; i < n; ++i) {
+    double len = ts[i] - ts[i - 1];
+    if (len < 1e-12) continue;
+    double tm = 0.5 * (ts[i] + ts[i - 1]);
+    int64_t k = 0;
+    for (int a = 0; a < 3; ++a) {
+      int32_t v = (int32_t)floor((p[a] + tm * d[a] - g->lo[a]) / g->h[a]);
+      v = v < 0 ? 0 : (v >= g->n[a] ? g->n[a] - 1 : v);
+      k += v * g->stride[a];
+    }
+    assert_true(count < MAX_SEG);
+    out[count++] = (seg_t){k, len};
+  }
+  return count;
+}
+
+/* Distance from p along d to the box's boundary. */
+static double exit_distance(const hv_grid_t *g, const double p[3], const double d[3]) {
+  double t = HUGE_VAL;
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] > 0.0) t = fmin(t, (g->hi[a] - p[a]) / d[a]);
+    if (d[a] < 0.0) t = fmin(t, (g->lo[a] - p[a]) / d[a]);
+  }
+  return t;
+}
+
+/* The logged segments, zero-length ones dropped, must be the reference's. */
+static void check_log(const hv_path_log_t *log, const seg_t *ref, int ref_count, int ray) {
+  int j = 0;
+  for (size_t i = 0; i < log->count; ++i) {
+    const hv_log_entry_t *e = &log->entries[i];
+    assert_int_equal(e->kind, HV_LOG_SEGMENT);
+    if (e->u.at.value < 1e-12) continue;
+    if (j >= ref_count || e->u.at.voxel != ref[j].k || fabs(e->u.at.value - ref[j].length) > 1e-12) {
+      print_error("ray %d, segment %d: voxel %lld length %.17g, reference voxel %lld length %.17g\n",
+                  ray, j, (long long)e->u.at.voxel, e->u.at.value,
+                  j < ref_count ? (long long)ref[j].k : -1LL, j < ref_count ? ref[j].length : 0.0);
+      fail();
+    }
+    ++j;
+  }
+  if (j != ref_count) {
+    print_error("ray %d: %d segments logged, reference has %d\n", ray, j, ref_count);
+    fail();
+  }
+}
+
+/* One flight from p along d over optical depth `depth`, checked against the
+ * reference: end point, distance, voxel, segments. */
+static void check_flight(const fixture_t *f, hv_path_log_t *log, const double p[3],
+                         const double d[3], double depth, int ray) {
+  const hv_grid_t *g = &f->grid;
+  hv_ray_t r = {.p = {p[0], p[1], p[2]}, .d = {d[0], d[1], d[2]}};
+  hv_ray_locate(g, &r);
+  seg_t ref[MAX_SEG];
+  double t_exit = exit_distance(g, p, d);
+  int n = reference_segments(g, p, d, t_exit, ref);
+  /* Where the reference reaches the depth, if it does. */
+  double acc = 0.0, t = 0.0, t_ref = t_exit;
+  int last = n;
+  bool hit = false;
+  for (int i = 0; i < n; ++i) {
+    double tau = g->voxel[ref[i].k].sigma_t * ref[i].length;
+    if (acc + tau >= depth) {
+      t_ref = t + (depth - acc) / g->voxel[ref[i].k].sigma_t;
+      ref[i].length = t_ref - t;
+      last = i + 1;
+      hit = true;
+      break;
+    }
+    acc += tau;
+    t += ref[i].length;
+  }
+  hv_path_log_reset(log);
+  double dist = -1.0;
+  hetinv_face_t face = HETINV_FACE_X_MIN;
+  int collided = hv_ray_march(g, &r, depth, &dist, &face, log);
+  if (collided != hit ||
+      fabs(dist - t_ref) > 1e-11 * (1.0 + t_ref)) {
+    print_error("ray %d: collided %d at %.17g, reference %.17g (exit at %.17g)\n", ray, collided,
+                dist, t_ref, t_exit);
+    fail();
+  }
+  check_log(log, ref, last, ray);
+  for (int a = 0; a < 3; ++a) assert_true(fabs(r.p[a] - (p[a] + dist * d[a])) < 1e-11);
+  if (collided) {
+    /* r.k is a voxel whose closed box holds the collision point. */
+    for (int a = 0; a < 3; ++a) {
+      int32_t v = (int32_t)((r.k / g->stride[a]) % g->n[a]);
+      assert_true(r.p[a] >= g->face[a][v] - 1e-12 && r.p[a] <= g->face[a][v + 1] + 1e-12);
+    }
+  } else {
+    int a = hv_face_axis(face);
+    assert_true(r.p[a] == ((int)face & 1 ? g->hi[a] : g->lo[a]));
+  }
+}
+
+static void random_direction(uint64_t *s, double d[3]) {
+  double z = 2.0 * uniform(s) - 1.0, phi = 6.283185307179586 * uniform(s);
+  double rho = sqrt(1.0 - z * z);
+  d[0] = rho * cos(phi);
+  d[1] = rho * sin(phi);
+  d[2] = z;
+}
+
+static hv_path_log_t make_log(const fixture_t *f) {
+  return (hv_path_log_t){.ctx = f->ctx};
+}
+
+static void random_flights_match_reference(void **state) {
+  (void)state;
+  uint64_t seed = UINT64_C(0x243f6a8885a308d3);
+  fixture_t f;
+  fixture_make(&f, &seed);
+  hv_path_log_t log = make_log(&f);
+  for (int i = 0; i < RAYS; ++i) {
+    double p[3], d[3];
+    for (int a = 0; a < 3; ++a) p[a] = LO[a] + (HI[a] - LO[a]) * uniform(&seed);
+    random_direction(&seed, d);
+    /* From a fraction of a voxel to across the box. */
+    double depth = 1e-9 - log1p(-uniform(&seed)) * (i % 2 ? 0.5 : 8.0);
+    check_flight(&f, &log, p, d, depth, i);
+  }
+  assert_false(log.out_of_memory);
+  hv_path_log_release(&log);
+  fixture_free(&f);
+}
+
+/* A pencil beam: axis-parallel directions (±0 components), starting on a
+ * boundary face at a point on voxel faces of the other axes. */
+static void axis_rays_on_faces_match_reference(void **state) {
+  (void)state;
+  uint64_t seed = UINT64_C(0x13198a2e03707344);
+  fixture_t f;
+  fixture_make(&f, &seed);
+  hv_path_log_t log = make_log(&f);
+  int ray = 0;
+  for (int a = 0; a < 3; ++a) {
+    for (int sign = -1; sign <= 1; sign += 2) {
+      for (int i = 0; i < 40; ++i, ++ray) {
+        double p[3], d[3] = {i % 2 ? -0.0 : 0.0, i % 3 ? -0.0 : 0.0, i % 5 ? 0.0 : -0.0};
+        d[a] = sign;
+        for (int b = 0; b < 3; ++b) {
+          int32_t v = (int32_t)(next_u64(&seed) % (uint64_t)(f.grid.n[b] + 1));
+          p[b] = i % 4 ? f.grid.face[b][v] : LO[b] + (HI[b] - LO[b]) * uniform(&seed);
+        }
+        p[a] = sign > 0 ? LO[a] : HI[a];
+        double depth = 1e-9 - log1p(-uniform(&seed)) * 4.0;
+        check_flight(&f, &log, p, d, depth, ray);
+      }
+    }
+  }
+  hv_path_log_release(&log);
+  fixture_free(&f);
+}
+
+/* hv_ray_to_boundary: the optical depth and segments to the boundary. */
+static void rays_to_boundary_match_reference(void **state) {
+  (void)state;
+  uint64_t seed = UINT64_C(0xa4093822299f31d0);
+  fixture_t f;
+  fixture_make(&f, &seed);
+  const hv_grid_t *g = &f.grid;
+  hv_path_log_t log = make_log(&f);
+  for (int i = 0; i < RAYS / 4; ++i) {
+    double p[3], d[3];
+    for (int a = 0; a < 3; ++a) p[a] = LO[a] + (HI[a] - LO[a]) * uniform(&seed);
+    random_direction(&seed, d);
+    seg_t ref[MAX_SEG];
+    double t_exit = exit_distance(g, p, d);
+    int n = reference_segments(g, p, d, t_exit, ref);
+    double depth_ref = 0.0;
+    for (int j = 0; j < n; ++j) depth_ref += g->voxel[ref[j].k].sigma_t * ref[j].length;
+    hv_ray_t r = {.p = {p[0], p[1], p[2]}, .d = {d[0], d[1], d[2]}};
+    hv_ray_locate(g, &r);
+    hv_path_log_reset(&log);
+    double dist;
+    hetinv_face_t face;
+    double depth = hv_ray_to_boundary(g, &r, &dist, &face, &log);
+    assert_true(fabs(dist - t_exit) < 1e-11);
+    assert_true(fabs(depth - depth_ref) < 1e-10 * (1.0 + depth_ref));
+    check_log(&log, ref, n, i);
+  }
+  hv_path_log_release(&log);
+  fixture_free(&f);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(random_flights_match_reference),
+      cmocka_unit_test(axis_rays_on_faces_match_reference),
+      cmocka_unit_test(rays_to_boundary_match_reference),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
