@@ -98,8 +98,11 @@ static hetinv_result_t replicates_of(const hv_pass_t *pass, const hetinv_param_m
         double ai = 0.5 * w[n] * a[i], bi = 0.5 * w[n] * b[i];
         if (ai == 0.0 && bi == 0.0) continue;
         double *row = F + i * K;
-        for (size_t j = 0; j < K; ++j) row[j] += ai * b[j] + bi * a[j];
+        for (size_t j = i; j < K; ++j) row[j] += ai * b[j] + bi * a[j];
       }
+    }
+    for (size_t i = 0; i < K; ++i) { /* symmetric exactly: the lower triangle mirrors */
+      for (size_t j = 0; j < i; ++j) F[i * K + j] = F[j * K + i];
     }
   }
   hv_free(ctx, eye);
