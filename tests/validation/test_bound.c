@@ -79,8 +79,8 @@ typedef struct tiny {
   size_t k;
 } tiny_t;
 
-static void tiny_build(tiny_t *p, bool uniform, uint32_t free_mask) {
-  p->ctx = val_context(seed, 1);
+static void tiny_build_threads(tiny_t *p, bool uniform, uint32_t free_mask, int32_t threads) {
+  p->ctx = val_context(seed, threads);
   assert_ok(hetinv_medium_create(p->ctx, (double[]){0, 0, 0}, (double[]){2, 1, 1}, (int32_t[]){2, 1, 1},
                                  &p->medium));
   assert_ok(hetinv_medium_set_ior(p->medium, 1.3, 1.0));
@@ -109,6 +109,10 @@ static void tiny_build(tiny_t *p, bool uniform, uint32_t free_mask) {
   assert_int_equal(hetinv_measurements_value_count(p->set), TINY_VALUES);
   assert_ok(hetinv_param_map_create_identity(p->medium, free_mask, &p->map));
   p->k = hetinv_param_map_size(p->map);
+}
+
+static void tiny_build(tiny_t *p, bool uniform, uint32_t free_mask) {
+  tiny_build_threads(p, uniform, free_mask, 1);
 }
 
 static void tiny_destroy(tiny_t *p) {
@@ -173,6 +177,27 @@ static void jvp_equals_gradient_on_the_same_paths(void **state) {
     tiny_destroy(&p);
   }
   val_assert_all_passed(failures);
+}
+
+/* The tangent pass reduces like the render: bitwise the same for 1 and 3
+ * threads, values and errors, and so is the Fisher matrix. */
+static void jvp_is_independent_of_the_thread_count(void **state) {
+  (void)state;
+  double jv[2][TINY_VALUES], se[2][TINY_VALUES], F[2][16];
+  for (int t = 0; t < 2; ++t) {
+    tiny_t p;
+    tiny_build_threads(&p, false, HETINV_FREE(HETINV_PARAM_SIGMA_A) | HETINV_FREE(HETINV_PARAM_G), t ? 3 : 1);
+    hetinv_estimator_t *est = estimator(p.ctx, val_photons(2e4), 3, 2);
+    assert_ok(hetinv_estimator_jvp(est, p.medium, p.set, p.map, V, p.k, jv[t], se[t], TINY_VALUES));
+    double var[TINY_VALUES];
+    for (int n = 0; n < TINY_VALUES; ++n) var[n] = 1.0;
+    assert_ok(hetinv_estimator_fisher(est, p.medium, p.set, var, TINY_VALUES, p.map, 2, F[t], NULL, 4));
+    hetinv_estimator_destroy(&est);
+    tiny_destroy(&p);
+  }
+  assert_memory_equal(jv[0], jv[1], sizeof jv[0]);
+  assert_memory_equal(se[0], se[1], sizeof se[0]);
+  assert_memory_equal(F[0], F[1], sizeof F[0]);
 }
 
 #define CONSISTENCY_EPOCHS 32
@@ -471,6 +496,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(bad_arguments_are_rejected),
       cmocka_unit_test(jvp_equals_gradient_on_the_same_paths),
+      cmocka_unit_test(jvp_is_independent_of_the_thread_count),
       cmocka_unit_test(jvp_agrees_with_gradient_on_independent_paths),
       cmocka_unit_test(fisher_matches_the_jacobian_formed_row_by_row),
       cmocka_unit_test(slab_bound_grows_with_depth_and_bins_lower_it),
