@@ -114,6 +114,38 @@ HETINV_API hetinv_result_t hetinv_estimator_crb(
     const double *variances, size_t count, const hetinv_param_map_t *map, int32_t replicates,
     double *sd, double *sd_std_errors, double *sd_lower, size_t k, int32_t *positive_definite);
 
+/**
+ * @brief Matrix-free, unbiased estimate of the diagonal of F, for maps too
+ *        large for the dense matrix (any K).
+ *
+ * Hutchinson's estimator: for each of R Rademacher probes z (±1 entries
+ * from a hash of the context seed, the epoch, the probe and the entry,
+ * independent of the photons), one tangent pass gives Ĵ₁z on stream
+ * s + 2r and one gradient pass gives Ĵ₂ᵀ(Σ⁻¹Ĵ₁z) on stream s + 2r + 1;
+ * z ⊙ Ĵ₂ᵀΣ⁻¹Ĵ₁z has expectation F_kk exactly (E[z_k z_j] = δ_kj and the
+ * passes share no photon). Its spread holds Σ_{j≠k} F_kj² besides the
+ * Monte Carlo noise, so where neighbouring entries are strongly
+ * correlated many probes are needed; each costs two passes whatever K.
+ *
+ * With it, sqrt(1/F_kk) is a LOWER bound on the CRB standard deviation
+ * sqrt((F⁻¹)_kk) (equal only when entry k is uncorrelated with the
+ * others): what entry k could reach if all the others were known. It is
+ * not the bound itself; use hetinv_estimator_crb() where K allows.
+ * @param estimator, medium, set, variances, count, map as for
+ *        hetinv_estimator_fisher().
+ * @param probes R, from 2 to #HETINV_FISHER_MAX_REPLICATES.
+ * @param[out] diagonal receives k estimates of F_kk (a single one can be
+ *        ≤ 0 from noise).
+ * @param[out] diagonal_std_errors their standard errors (spread of the
+ *        probes / √R, R − 1 degrees of freedom); may be NULL.
+ * @param k hetinv_param_map_size(map).
+ * @return as hetinv_estimator_fisher(), without the limit on k.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
+    hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
+    const double *variances, size_t count, const hetinv_param_map_t *map, int32_t probes,
+    double *diagonal, double *diagonal_std_errors, size_t k);
+
 #ifdef __cplusplus
 }
 #endif

@@ -25,19 +25,19 @@
 static hetinv_result_t check(const hv_pass_t *pass, const hetinv_medium_t *medium,
                              const hetinv_measurements_t *set, const double *variances,
                              const hetinv_param_map_t *map, int32_t replicates, size_t k,
-                             double **weights, const char *func) {
+                             bool dense, double **weights, const char *func) {
   const hetinv_context_t *ctx = pass->ctx;
   hetinv_result_t r = hv_check_pi_map(ctx, map, medium, k, "k", func);
   if (r != HETINV_SUCCESS) return r;
-  if (k > HETINV_FISHER_MAX_ENTRIES) {
+  if (dense && k > HETINV_FISHER_MAX_ENTRIES) {
     return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
                    "the map has %zu entries; the dense Fisher matrix takes at most %d", k,
                    HETINV_FISHER_MAX_ENTRIES);
   }
   if (replicates < 2 || replicates > HETINV_FISHER_MAX_REPLICATES) {
     return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
-                   "replicates is %d; expected an integer from 2 to %d", (int)replicates,
-                   HETINV_FISHER_MAX_REPLICATES);
+                   "%s is %d; expected an integer from 2 to %d", dense ? "replicates" : "probes",
+                   (int)replicates, HETINV_FISHER_MAX_REPLICATES);
   }
   size_t n = set->value_count;
   double *w = hv_calloc(ctx, n, sizeof(double));
@@ -123,7 +123,7 @@ static hetinv_result_t fisher_run(hetinv_estimator_t *est, const hetinv_medium_t
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = pass.ctx;
   double *w = NULL;
-  r = check(&pass, medium, set, variances, map, R, k, &w, func);
+  r = check(&pass, medium, set, variances, map, R, k, true, &w, func);
   if (r == HETINV_SUCCESS) {
     *reps = hv_calloc(ctx, (size_t)R * k * k, sizeof(double));
     if (*reps == NULL) {
@@ -284,5 +284,76 @@ HETINV_API hetinv_result_t hetinv_estimator_crb(
   hv_free(ctx, sub);
   hv_free(ctx, jk);
   hv_free(ctx, keep);
+  return r;
+}
+
+/* Rademacher entry i of probe r: a SplitMix64 hash of (seed, probe, i),
+ * independent of the photons (another generator altogether). */
+static double rademacher(uint64_t seed, int32_t probe, size_t i) {
+  uint64_t z = seed ^ ((uint64_t)(uint32_t)probe * 0x9e3779b97f4a7c15ULL) ^ ((uint64_t)i * 0xd1b54a32d192ed03ULL);
+  z += 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  z ^= z >> 31;
+  return (z >> 63) ? 1.0 : -1.0;
+}
+
+HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
+    hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
+    const double *variances, size_t count, const hetinv_param_map_t *map, int32_t probes,
+    double *diagonal, double *diagonal_std_errors, size_t k) {
+  hv_pass_t pass;
+  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, __func__, &pass);
+  if (r != HETINV_SUCCESS) return r;
+  const hetinv_context_t *ctx = pass.ctx;
+  double *w = NULL;
+  if (diagonal == NULL) r = HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'diagonal' is NULL");
+  if (r == HETINV_SUCCESS) r = check(&pass, medium, set, variances, map, probes, k, false, &w, __func__);
+  double *z = NULL, *tangent = NULL, *jz = NULL, *g = NULL, *sum = NULL, *sq = NULL;
+  if (r == HETINV_SUCCESS) {
+    z = hv_calloc(ctx, k, sizeof(double));
+    tangent = hv_calloc(ctx, 3 * medium->voxel_count, sizeof(double));
+    jz = hv_calloc(ctx, count, sizeof(double));
+    g = hv_calloc(ctx, k, sizeof(double));
+    sum = hv_calloc(ctx, k, sizeof(double));
+    sq = hv_calloc(ctx, k, sizeof(double));
+    if (!(z && tangent && jz && g && sum && sq)) {
+      r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the probes of %zu entries", k);
+    }
+  }
+  for (int32_t probe = 0; r == HETINV_SUCCESS && probe < probes; ++probe) {
+    /* d = z ⊙ Ĵ₂ᵀ W Ĵ₁ z, the two passes on independent streams:
+     * E[d_k] = Σ_j F_kj E[z_k z_j] = F_kk. */
+    for (size_t i = 0; i < k; ++i) z[i] = rademacher(pass.seed, probe, i);
+    hv_param_map_pushforward(map, z, 1, tangent);
+    hv_pass_t p = pass;
+    p.stream = (uint32_t)((pass.stream + 2u * (uint32_t)probe) % HV_RNG_STREAM_LIMIT);
+    r = hv_tangent_run(&p, tangent, 1, count, jz, NULL, __func__);
+    if (r != HETINV_SUCCESS) break;
+    for (size_t n = 0; n < count; ++n) jz[n] *= w[n];
+    p.stream = (p.stream + 1u) % HV_RNG_STREAM_LIMIT;
+    r = hv_gradient_run(&p, map, jz, g, NULL, __func__);
+    for (size_t i = 0; r == HETINV_SUCCESS && i < k; ++i) {
+      double d = z[i] * g[i];
+      sum[i] += d;
+      sq[i] += d * d;
+    }
+  }
+  for (size_t i = 0; r == HETINV_SUCCESS && i < k; ++i) {
+    double mean = sum[i] / probes;
+    diagonal[i] = mean;
+    if (diagonal_std_errors) {
+      double var = (sq[i] - probes * mean * mean) / (probes - 1);
+      diagonal_std_errors[i] = sqrt(var > 0.0 ? var / probes : 0.0);
+    }
+  }
+  hv_free(ctx, w);
+  hv_free(ctx, z);
+  hv_free(ctx, tangent);
+  hv_free(ctx, jz);
+  hv_free(ctx, g);
+  hv_free(ctx, sum);
+  hv_free(ctx, sq);
+  hv_pass_end(&pass);
   return r;
 }

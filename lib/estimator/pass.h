@@ -52,6 +52,12 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
                                size_t count, double *values, double *std_errors,
                                const char *func);
 
+/* The gradient pass (gradient.c) on a pass already begun: grad = Jᵀ·cotangent
+ * in π space, with standard errors if grad_se is not NULL. */
+hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t *map,
+                                const double *cotangent, double *grad, double *grad_se,
+                                const char *func);
+
 /* Checks a parameter map against the medium and a π-sized argument whose
  * length `count` is named `what` in the message. */
 hetinv_result_t hv_check_pi_map(const hetinv_context_t *ctx, const hetinv_param_map_t *map,

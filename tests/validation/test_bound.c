@@ -452,6 +452,39 @@ static void slab_bound_grows_with_depth_and_bins_lower_it(void **state) {
   val_assert_all_passed(failures);
 }
 
+/* The matrix-free diagonal (Hutchinson) against the dense matrix's
+ * diagonal, each with its own error; 4 comparisons. And sqrt(1/F_kk) is a
+ * lower bound of the CRB: below sqrt((F⁻¹)_kk) from the dense matrix. */
+#define PROBES 200
+
+static void fisher_diagonal_matches_the_dense_diagonal(void **state) {
+  (void)state;
+  tiny_t p;
+  tiny_build(&p, false, HETINV_FREE(HETINV_PARAM_SIGMA_A) | HETINV_FREE(HETINV_PARAM_G));
+  double var[TINY_VALUES];
+  tiny_variances(&p, var);
+  hetinv_estimator_t *est = estimator(p.ctx, val_photons(2000), 100, 0);
+  double F[K4 * K4], F_se[K4 * K4], d[K4], d_se[K4], sd[K4], lower[K4];
+  assert_ok(hetinv_estimator_fisher(est, p.medium, p.set, var, TINY_VALUES, p.map, 50, F, F_se, K4));
+  int32_t pd = 0;
+  assert_ok(hetinv_estimator_crb(est, p.medium, p.set, var, TINY_VALUES, p.map, 50, sd, NULL, lower, K4, &pd));
+  assert_int_equal(pd, 1);
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, 300));
+  assert_ok(hetinv_estimator_fisher_diagonal(est, p.medium, p.set, var, TINY_VALUES, p.map, PROBES, d, d_se, K4));
+  int failures = 0;
+  for (int k = 0; k < K4; ++k) {
+    char what[64];
+    snprintf(what, sizeof what, "fisher_diagonal/F[%d][%d]", k, k);
+    failures += !grad_compare(what, F[k * K4 + k], F_se[k * K4 + k], 49, d[k], d_se[k], PROBES - 1, K4, seed);
+    /* The same F̂: (F̂⁻¹)_kk >= 1/F̂_kk holds exactly for a positive definite F̂. */
+    snprintf(what, sizeof what, "crb/lower[%d]_below_sd", k);
+    failures += !val_check_exact("BOUND", what, 0.0, fmax(0.0, lower[k] - sd[k]), 0.0, seed);
+  }
+  hetinv_estimator_destroy(&est);
+  tiny_destroy(&p);
+  val_assert_all_passed(failures);
+}
+
 /* Bad arguments get a precise error, and nothing is written. */
 static void bad_arguments_are_rejected(void **state) {
   (void)state;
@@ -499,6 +532,7 @@ int main(void) {
       cmocka_unit_test(jvp_is_independent_of_the_thread_count),
       cmocka_unit_test(jvp_agrees_with_gradient_on_independent_paths),
       cmocka_unit_test(fisher_matches_the_jacobian_formed_row_by_row),
+      cmocka_unit_test(fisher_diagonal_matches_the_dense_diagonal),
       cmocka_unit_test(slab_bound_grows_with_depth_and_bins_lower_it),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
