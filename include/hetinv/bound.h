@@ -100,7 +100,7 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher(
  * @param[out] sd receives k standard deviations, in the units of π.
  * @param[out] sd_std_errors their jackknife standard errors over the
  *        replicates (NaN if a leave-one-out matrix is not positive
- *        definite); may be NULL.
+ *        definite; 0 for an infinite bound, which is exact); may be NULL.
  * @param[out] sd_lower receives sqrt(1/F̂_kk), a LOWER bound on the CRB
  *        standard deviation (NaN where F̂_kk ≤ 0 from noise); may be NULL.
  * @param k hetinv_param_map_size(map).
