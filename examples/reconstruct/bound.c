@@ -95,6 +95,15 @@ static void summarise(recon_bound_t *b, size_t voxels) {
     for (size_t v = 0; v < voxels; ++v) se_sum += isfinite(b->rel[p][v]) ? b->rel_se[p][v] : 0.0;
     b->se_mean[p] = n ? se_sum / (double)n : (double)NAN;
     b->max[p] = n ? mx : (double)NAN;
+    double lo_sum = 0.0;
+    size_t lo_n = 0;
+    for (size_t v = 0; v < voxels; ++v) {
+      if (isfinite(b->lower[p][v])) {
+        lo_sum += b->lower[p][v];
+        ++lo_n;
+      }
+    }
+    b->lower_mean[p] = lo_n ? lo_sum / (double)lo_n : (double)NAN;
     b->median[p] = NAN;
     if (sorted && n) {
       qsort(sorted, n, sizeof *sorted, compare_double);
@@ -112,21 +121,23 @@ hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *
   size_t n = hetinv_measurements_value_count(im->set), voxels = hetinv_medium_voxel_count(truth);
   hetinv_param_map_t *map = NULL;
   hetinv_estimator_t *est = NULL;
-  double *var = calloc(n, sizeof *var), *sd = NULL, *se = NULL, *pi = NULL;
+  double *var = calloc(n, sizeof *var), *sd = NULL, *se = NULL, *pi = NULL, *lower = NULL;
   uint8_t *mask = calloc(n, 1), *saved_mask = calloc(n, 1);
   hetinv_result_t r = var && mask && saved_mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
   if (r == HETINV_SUCCESS) r = hetinv_param_map_create_identity(truth, HETINV_FREE_ALL, &map);
   size_t k = map ? hetinv_param_map_size(map) : 0;
   if (r == HETINV_SUCCESS) {
     sd = calloc(k, sizeof *sd);
+    lower = calloc(k, sizeof *lower);
     se = calloc(k, sizeof *se);
     pi = calloc(k, sizeof *pi);
     for (int p = 0; p < 3; ++p) {
       b->rel[p] = calloc(voxels, sizeof(double));
       b->rel_se[p] = calloc(voxels, sizeof(double));
-      if (!b->rel[p] || !b->rel_se[p]) r = HETINV_ERROR_OUT_OF_MEMORY;
+      b->lower[p] = calloc(voxels, sizeof(double));
+      if (!b->rel[p] || !b->rel_se[p] || !b->lower[p]) r = HETINV_ERROR_OUT_OF_MEMORY;
     }
-    if (!sd || !se || !pi) r = HETINV_ERROR_OUT_OF_MEMORY;
+    if (!sd || !se || !pi || !lower) r = HETINV_ERROR_OUT_OF_MEMORY;
   }
   if (r == HETINV_SUCCESS) {
     memcpy(saved_mask, hetinv_measurements_mask(im->set), n);
@@ -138,7 +149,7 @@ hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *
   if (r == HETINV_SUCCESS && sc->batches > 0) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, sc->batches);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
   if (r == HETINV_SUCCESS) {
-    r = hetinv_estimator_crb(est, truth, im->set, var, n, map, replicates, sd, se, NULL, k,
+    r = hetinv_estimator_crb(est, truth, im->set, var, n, map, replicates, sd, se, lower, k,
                              &b->positive_definite);
     hetinv_result_t back = hetinv_measurements_set_mask(im->set, saved_mask, n);
     if (r == HETINV_SUCCESS) r = back;
@@ -149,6 +160,7 @@ hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *
     r = hetinv_param_map_entry(map, i, &p, &cell);
     b->rel[p][cell] = sd[i] / fabs(pi[i]);
     b->rel_se[p][cell] = se[i] / fabs(pi[i]);
+    b->lower[p][cell] = lower[i] / fabs(pi[i]);
   }
   if (r == HETINV_SUCCESS) {
     summarise(b, voxels);
@@ -165,6 +177,7 @@ hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *
   free(sd);
   free(se);
   free(pi);
+  free(lower);
   if (r != HETINV_SUCCESS) recon_bound_release(b);
   return r;
 }
@@ -173,7 +186,8 @@ void recon_bound_release(recon_bound_t *b) {
   for (int p = 0; p < 3; ++p) {
     free(b->rel[p]);
     free(b->rel_se[p]);
-    b->rel[p] = b->rel_se[p] = NULL;
+    free(b->lower[p]);
+    b->rel[p] = b->rel_se[p] = b->lower[p] = NULL;
   }
   b->done = false;
 }
@@ -192,6 +206,9 @@ void recon_bound_print(const recon_bound_t *b, FILE *f) {
             100.0 * b->mean[p], 100.0 * b->median[p], 100.0 * b->max[p], 100.0 * b->se_mean[p],
             b->infinite[p] + b->undefined[p]);
   }
+  fprintf(f, "  lower bound sqrt(1/F_kk) (each value alone, the others known), mean:");
+  for (int p = 0; p < 3; ++p) fprintf(f, " %s %.3g %%", hetinv_param_name(p), 100.0 * b->lower_mean[p]);
+  fprintf(f, "\n");
 }
 
 /* Value of a per-voxel array at section pixel (x, z): the middle y slice. */
@@ -205,17 +222,19 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
   hetinv_medium_get_dims(truth, d);
   char path[1200];
   hetinv_image_t *img = NULL;
-  hetinv_result_t r = hetinv_image_create(ctx, d[0], d[2], 6, &img);
+  hetinv_result_t r = hetinv_image_create(ctx, d[0], d[2], 9, &img);
+  static const char *const kinds[3] = {"bound", "bound_std_error", "bound_lower"};
   for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
-    for (int which = 0; r == HETINV_SUCCESS && which < 2; ++which) {
+    const double *src[3] = {b->rel[p], b->rel_se[p], b->lower[p]};
+    for (int which = 0; r == HETINV_SUCCESS && which < 3; ++which) {
       char name[64];
-      snprintf(name, sizeof name, "%s_%s", which ? "bound_std_error" : "bound", hetinv_param_name(p));
-      int32_t c = 2 * p + which;
+      snprintf(name, sizeof name, "%s_%s", kinds[which], hetinv_param_name(p));
+      int32_t c = 3 * p + which;
       r = hetinv_image_set_channel_name(img, c, name);
       float *px = hetinv_image_channel_data(img, c);
       for (int32_t z = 0; z < d[2]; ++z) {
         for (int32_t x = 0; x < d[0]; ++x) {
-          px[(size_t)z * (size_t)d[0] + (size_t)x] = (float)section(which ? b->rel_se[p] : b->rel[p], d, x, z);
+          px[(size_t)z * (size_t)d[0] + (size_t)x] = (float)section(src[which], d, x, z);
         }
       }
     }
@@ -223,7 +242,8 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
   if (r == HETINV_SUCCESS) {
     r = hetinv_image_set_attribute_string(img, "hetinv:content",
                                           "Cramer-Rao bound: relative standard deviation sd/value at the "
-                                          "truth; x-z section at the middle of y; row = z");
+                                          "truth, its jackknife error, and the lower bound sqrt(1/F_kk)/value; "
+                                          "x-z section at the middle of y; row = z");
   }
   snprintf(path, sizeof path, "%s/bound.exr", sc->output);
   if (r == HETINV_SUCCESS) r = hetinv_image_write_exr(img, path);

@@ -170,8 +170,10 @@ typedef struct recon_bound {
   bool done;
   int32_t positive_definite;
   double *rel[3], *rel_se[3];       /* per voxel (linear order) */
+  double *lower[3];                  /* sqrt(1/F_kk)/value: a lower bound of rel */
   double mean[3], median[3], max[3]; /* over the finite ones */
   double se_mean[3];                 /* mean of their jackknife errors */
+  double lower_mean[3];              /* mean of the finite lower bounds */
   size_t infinite[3], undefined[3];
   int64_t photons;
   int32_t replicates;
@@ -183,7 +185,8 @@ hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *
 void recon_bound_release(recon_bound_t *b);
 /* The summary table (mean, median, max per parameter). */
 void recon_bound_print(const recon_bound_t *b, FILE *f);
-/* <output>/bound.exr (bound and its standard error per parameter) and
+/* <output>/bound.exr (bound, its standard error and the lower bound per
+ * parameter) and
  * <output>/bound_<param>.png. */
 hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *scene,
                                   const hetinv_medium_t *truth, const recon_bound_t *b);
