@@ -3,6 +3,12 @@
  *
  *   hetinv-reconstruct [scene.json] [-o DIR] [--resume] [--quiet]
  *                      [--threads N] [--iterations N] [--photons N]
+ *                      [--bound-only | --no-bound] [--bound-photons N]
+ *                      [--bound-replicates N]
+ *
+ * --bound-only computes the Cramér–Rao bound of the configuration at the
+ * truth (bound.c) and stops; otherwise the bound is written beside the
+ * recovery and errors.csv gains achieved/bound, unless --no-bound.
  *
  * Exit status: 0 success, 1 failure (message on stderr), 2 usage error. */
 #include <stdio.h>
@@ -21,6 +27,7 @@ static int usage(const char *what) {
           "hetinv-reconstruct: %s\n"
           "usage: hetinv-reconstruct [scene.json] [-o DIR] [--resume] [--quiet]\n"
           "                          [--threads N] [--iterations N] [--photons N]\n"
+          "                          [--bound-only | --no-bound] [--bound-photons N] [--bound-replicates N]\n"
           "Without a scene, runs the built-in reduced Fig. 4 scene.\n",
           what);
   return 2;
@@ -50,6 +57,8 @@ static int run(int argc, char **argv, outdir_t *dir) {
   const char *scene_path = NULL, *out_dir = NULL;
   bool resume = false, quiet = false;
   int64_t threads = -1, iterations = -1, photons = -1;
+  bool bound_only = false, no_bound = false;
+  int64_t bound_photons = -1, bound_replicates = 8;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
     if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
@@ -65,6 +74,14 @@ static int run(int argc, char **argv, outdir_t *dir) {
       if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT32_MAX, &iterations) < 0) return 2;
     } else if (strcmp(a, "--photons") == 0) {
       if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT64_C(1) << 40, &photons) < 0) return 2;
+    } else if (strcmp(a, "--bound-only") == 0) {
+      bound_only = true;
+    } else if (strcmp(a, "--no-bound") == 0) {
+      no_bound = true;
+    } else if (strcmp(a, "--bound-photons") == 0) {
+      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT64_C(1) << 40, &bound_photons) < 0) return 2;
+    } else if (strcmp(a, "--bound-replicates") == 0) {
+      if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 2, HETINV_FISHER_MAX_REPLICATES, &bound_replicates) < 0) return 2;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
       usage("recover sigma_a, sigma_s and g from boundary measurements");
       return 0;
@@ -78,6 +95,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
       scene_path = a;
     }
   }
+  if (bound_only && no_bound) return usage("--bound-only and --no-bound exclude each other");
   char msg[4096];
   if (scene_path && recon_scene_read(scene_path, &sc, msg, sizeof msg) < 0) {
     fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
@@ -118,7 +136,9 @@ static int run(int argc, char **argv, outdir_t *dir) {
     fflush(stdout);
   }
   char path[1200];
-  if (status == 0 && sc.measurements[0]) {
+  if (bound_only) {
+    /* the bound needs the configuration and the truth only */
+  } else if (status == 0 && sc.measurements[0]) {
     if (recon_measurements_read(ctx, &im, sc.measurements, msg, sizeof msg) != HETINV_SUCCESS) {
       fprintf(stderr, "hetinv-reconstruct: measurements: %s\n", msg);
       status = 1;
@@ -132,27 +152,40 @@ static int run(int argc, char **argv, outdir_t *dir) {
       if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
     }
   }
+  recon_bound_t bound;
+  memset(&bound, 0, sizeof bound);
+  if (status == 0 && (bound_only || !no_bound)) {
+    status = recon_bound_run("hetinv-reconstruct", ctx, &sc, truth, &im, bound_photons > 0 ? bound_photons : sc.photons,
+                             (int32_t)bound_replicates, root, &bound);
+  }
+  if (status == 0 && root && bound_only && bound.done) printf("wrote %s/{bound.exr, bound_*.png}\n", sc.output);
   double seconds = 0.0;
-  if (status == 0 && recon_solve(ctx, &sc, &im, resume, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
+  if (status == 0 && !bound_only &&
+      recon_solve(ctx, &sc, &im, resume, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
     fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
     status = 1;
   }
-  if (status == 0 && root) {
+  if (status == 0 && root && !bound_only) {
     recon_errors_t e;
     recon_errors(truth, rec, &e);
+    recon_bound_attach(&bound, &e);
     printf("\nrelative error of the recovery (%zu voxels):\n", hetinv_medium_voxel_count(truth));
-    printf("  parameter   mean      max\n");
+    printf("  parameter   mean      max%s\n", e.has_bound ? "       achieved/bound" : "");
     for (int p = 0; p < 3; ++p) {
-      printf("  %-9s %6.2f %%  %6.2f %%\n", hetinv_param_name(p), 100.0 * e.mean[p], 100.0 * e.max[p]);
+      printf("  %-9s %6.2f %%  %6.2f %%", hetinv_param_name(p), 100.0 * e.mean[p], 100.0 * e.max[p]);
+      if (e.has_bound) printf("  %8.3g", e.achieved_over_bound[p]);
+      printf("\n");
     }
     printf("optimisation %.1f s, total %.1f s\n", seconds, recon_now() - t0);
     if (recon_write_outputs(ctx, &sc, truth, rec, &e, msg, sizeof msg) != HETINV_SUCCESS) {
       fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else {
-      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv}\n", sc.output);
+      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv%s}\n", sc.output,
+             bound.done ? ", bound.exr, bound_*.png" : "");
     }
   }
+  recon_bound_release(&bound);
   hetinv_medium_destroy(&rec);
   hetinv_medium_destroy(&truth);
   recon_imaging_release(&im);

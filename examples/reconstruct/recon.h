@@ -146,9 +146,13 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *scene,
                             recon_imaging_t *im, bool resume, bool quiet,
                             hetinv_medium_t **out, double *seconds, char *msg, size_t msg_size);
 
-/* Relative errors |x̂ − x| / x over the voxels, per parameter. */
+/* Relative errors |x̂ − x| / x over the voxels, per parameter; with
+ * has_bound, also the mean predicted relative standard deviation (bound.c)
+ * and achieved/bound = mean error / mean bound. */
 typedef struct recon_errors {
   double mean[3], max[3];
+  bool has_bound;
+  double bound_mean[3], achieved_over_bound[3];
 } recon_errors_t;
 void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *recovered, recon_errors_t *e);
 
@@ -175,5 +179,43 @@ int recon_parse_count(const char *prog, const char *opt, const char *text, int64
                       int64_t *out);
 double recon_now(void);
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
+
+/* The Cramér–Rao bound of the configuration at the truth (bound.c):
+ * per voxel and parameter the predicted relative standard deviation
+ * sd/value of any unbiased estimate (hetinv_estimator_crb with an
+ * identity map of all three parameters), under the scene's noise model
+ * at the clean values. rel: +inf where nothing reaches the voxel, NaN if
+ * the estimated Fisher matrix is not positive definite. */
+typedef struct recon_bound {
+  bool done;
+  int32_t positive_definite;
+  double *rel[3], *rel_se[3];       /* per voxel (linear order) */
+  double *lower[3];                  /* sqrt(1/F_kk)/value: a lower bound of rel */
+  double mean[3], median[3], max[3]; /* over the finite ones */
+  double se_mean[3];                 /* mean of their jackknife errors */
+  double lower_mean[3];              /* mean of the finite lower bounds */
+  size_t infinite[3], undefined[3];
+  int64_t photons;
+  int32_t replicates;
+  double seconds;
+} recon_bound_t;
+hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *scene,
+                                    const hetinv_medium_t *truth, recon_imaging_t *im,
+                                    int64_t photons, int32_t replicates, recon_bound_t *out);
+void recon_bound_release(recon_bound_t *b);
+/* The summary table (mean, median, max per parameter). */
+void recon_bound_print(const recon_bound_t *b, FILE *f);
+/* <output>/bound.exr (bound, its standard error and the lower bound per
+ * parameter) and
+ * <output>/bound_<param>.png. */
+hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *scene,
+                                  const hetinv_medium_t *truth, const recon_bound_t *b);
+/* Computes, prints (root) and writes (root) the bound; with several MPI
+ * ranks it is skipped (b->done false). 0, or 1 after a message. */
+int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *scene,
+                    const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
+                    int32_t replicates, bool root, recon_bound_t *b);
+/* Fills e's bound columns from b (no-op if b was not computed). */
+void recon_bound_attach(const recon_bound_t *b, recon_errors_t *e);
 
 #endif

@@ -20,6 +20,7 @@ void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *rec, reco
     e->mean[p] = sum / (double)n;
     e->max[p] = mx;
   }
+  e->has_bound = false;
 }
 
 /* Value of parameter p at section pixel (x, z): the middle y slice. */
@@ -120,8 +121,13 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
   char tmp[1220];
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
   if (f != NULL) {
-    fprintf(f, "parameter,mean_relative_error,max_relative_error\n");
-    for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.6f,%.6f\n", hetinv_param_name(p), e->mean[p], e->max[p]);
+    fprintf(f, "parameter,mean_relative_error,max_relative_error%s\n",
+            e->has_bound ? ",mean_relative_bound,achieved_over_bound" : "");
+    for (int p = 0; p < 3; ++p) {
+      fprintf(f, "%s,%.6f,%.6f", hetinv_param_name(p), e->mean[p], e->max[p]);
+      if (e->has_bound) fprintf(f, ",%.6g,%.6g", e->bound_mean[p], e->achieved_over_bound[p]);
+      fprintf(f, "\n");
+    }
   }
   if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
     snprintf(msg, msg_size, "%s: %s", path, strerror(errno));

@@ -223,6 +223,39 @@ HETINV_API hetinv_result_t hetinv_estimator_gradient(
     double *grad_std_errors, size_t grad_count);
 
 /**
+ * @brief Jacobian–vector product of the rendered values: for every value n,
+ *        jv[n] = Σ_k ∂I_n/∂π_k · v[k], estimated by score functions on paths
+ *        of the estimator's current stream (the forward-mode companion of
+ *        hetinv_estimator_gradient(), which gives Jᵀu).
+ *
+ * Each splat of contribution c into value n adds c·(S·v), S being the
+ * path's score accumulated before the splat — the same attribution as the
+ * gradient pass: the path's segments and vertices so far, and for a
+ * next-event connection also its own segments and the vertex's phase
+ * toward the sensor. So uᵀ(J v) and (Jᵀu)ᵀv estimate the same number.
+ * The cost is about that of a render; bitwise deterministic like it.
+ * @param estimator the estimator.
+ * @param medium committed medium (as for hetinv_estimator_render()).
+ * @param set the measurement set.
+ * @param map parameter map made for the medium's grid.
+ * @param v the tangent: @p v_count finite values.
+ * @param v_count hetinv_param_map_size(map).
+ * @param[out] jv receives @p count values, in the set's value layout.
+ * @param[out] jv_std_errors their standard errors (from the batch means,
+ *        as for a render); may be NULL.
+ * @param count the set's value count.
+ * @return as hetinv_estimator_render(), plus HETINV_ERROR_INVALID_ARGUMENT
+ *         for a non-finite v, a map of another grid or a wrong v_count, and
+ *         HETINV_ERROR_UNSUPPORTED for a context with several MPI ranks.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_jvp(hetinv_estimator_t *estimator,
+                                                const hetinv_medium_t *medium,
+                                                const hetinv_measurements_t *set,
+                                                const hetinv_param_map_t *map, const double *v,
+                                                size_t v_count, double *jv, double *jv_std_errors,
+                                                size_t count);
+
+/**
  * @brief Appearance-matching loss of Eq. (9) and its stochastic gradient.
  *
  * Renders I with the estimator's stream s, forms the loss

@@ -20,6 +20,7 @@
 #include "hetinv/measurement.h"
 #include "hetinv/param.h"
 #include "hetinv/estimator.h"
+#include "hetinv/bound.h"
 #include "hetinv/optimizer.h"
 #include "hetinv/acquire.h"
 

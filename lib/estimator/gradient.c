@@ -217,9 +217,8 @@ static hetinv_result_t share(gradient_t *g, hetinv_result_t status) {
   return r;
 }
 
-/* The gradient pass proper, on a pass already begun. */
-static hetinv_result_t run_gradient(const hv_pass_t *pass, const hetinv_param_map_t *map,
-                                    const double *cotangent, double *grad, double *grad_se) {
+hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t *map,
+                                const double *cotangent, double *grad, double *grad_se) {
   const hetinv_context_t *ctx = pass->ctx;
   gradient_t g = {.pass = pass, .map = map, .k = hetinv_param_map_size(map)};
   g.records.ctx = ctx;
@@ -298,7 +297,7 @@ HETINV_API hetinv_result_t hetinv_estimator_gradient(
                   i, cotangent[i]);
     }
   }
-  if (r == HETINV_SUCCESS) r = run_gradient(&pass, map, cotangent, grad, grad_std_errors);
+  if (r == HETINV_SUCCESS) r = hv_gradient_run(&pass, map, cotangent, grad, grad_std_errors);
   hv_pass_end(&pass);
   return r;
 }
@@ -331,7 +330,7 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
       if (loss) *loss = sum;
       if (rendered) memcpy(rendered, values, n * sizeof(double));
       pass.stream = (pass.stream + 1) % HV_RNG_STREAM_LIMIT;
-      r = run_gradient(&pass, map, cot, grad, NULL);
+      r = hv_gradient_run(&pass, map, cot, grad, NULL);
     }
   }
   hv_free(ctx, values);

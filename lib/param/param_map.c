@@ -314,3 +314,24 @@ HETINV_API hetinv_result_t hetinv_param_map_pullback(const hetinv_param_map_t *m
   (void)pull(map, in, pi_grad, false); /* allocates nothing without normalise */
   return HETINV_SUCCESS;
 }
+
+void hv_param_map_pushforward(const hetinv_param_map_t *map, const double *pi, int32_t tangents,
+                              double *voxel) {
+  size_t T = (size_t)tangents, K = hetinv_param_map_size(map), V = map->voxel_count;
+  memset(voxel, 0, 3 * V * T * sizeof(double));
+  for (int32_t f = 0; f < map->free_count; ++f) {
+    hetinv_param_t p = map->free_params[f];
+    size_t k = 0;
+    for (int32_t z = 0; z < map->fine[2]; ++z) {
+      for (int32_t y = 0; y < map->fine[1]; ++y) {
+        for (int32_t x = 0; x < map->fine[0]; ++x, ++k) {
+          double *out = voxel + ((size_t)p * V + k) * T;
+          FOR_EACH_CELL(map, x, y, z, {
+            size_t i = (size_t)f * map->cell_count + cell;
+            for (size_t t = 0; t < T; ++t) out[t] += weight * pi[t * K + i];
+          })
+        }
+      }
+    }
+  }
+}

@@ -76,9 +76,14 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
 static void score(const hv_plan_t *plan, const hv_sensor_target_t *t, hv_tally_t *tally,
                   double *dst, hv_path_log_t *log, int32_t pixel, double tau, double value) {
   value *= plan->emitter->power;
+  hv_grad_tally_t *gt = tally->grad;
   for (int32_t i = 0; i < t->row_count; ++i) {
     const hv_row_target_t *row = &plan->rows[t->first_row + i];
-    if (tally->grad) {
+    if (gt && gt->jvp.tangents > 0) {
+      size_t T = (size_t)gt->jvp.tangents;
+      hv_jvp_splat(&gt->jvp, &gt->path, log == &gt->chain ? log : NULL, row->pathlength, tau, value,
+                   dst + ((size_t)row->offset + (size_t)pixel) * T, (size_t)row->pixels * T);
+    } else if (gt) {
       log->scored = true;
       log->cum += value * hv_pathlength_dot(row->pathlength, tau,
                                             tally->grad->cotangent + row->offset + pixel, row->pixels);
@@ -118,6 +123,9 @@ static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
     double start = w * hv_phase_eval(phase, cos_theta);
     if (!(start > 0.0)) continue;
     if (chain) hv_path_log_reset(chain);
+    if (gt && gt->jvp.tangents > 0) {
+      hv_jvp_chain_begin(&gt->jvp, hv_vertex_voxel(grid, vertex), hv_phase_dlog_dg(phase, cos_theta));
+    }
     hv_ray_t r = *vertex;
     memcpy(r.d, w0, sizeof r.d);
     hv_ray_locate(grid, &r);
@@ -288,10 +296,12 @@ HV_TARGET_CLONES_X86_64_V3
 void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally) {
   hv_grad_tally_t *gt = tally->grad;
   if (gt) {
+    bool tangent = gt->jvp.tangents > 0;
     hv_path_log_reset(&gt->path);
+    if (tangent) hv_jvp_path_begin(&gt->jvp);
     trace(tr, plan, rng, tally, true);
     /* Most paths never reach a sensor: every entry's share is then 0. */
-    if (gt->path.scored) hv_grad_apply_log(gt, tr->grid, &gt->path);
+    if (!tangent && gt->path.scored) hv_grad_apply_log(gt, tr->grid, &gt->path);
   } else {
     trace(tr, plan, rng, tally, false);
   }

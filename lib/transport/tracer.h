@@ -9,6 +9,7 @@
 #include "core/exponential.h"
 #include "core/rng.h"
 #include "transport/grid.h"
+#include "transport/path_jvp.h"
 #include "transport/plan.h"
 
 /* Per-photon statistics slots of a tally (fractions of emitted power). */
@@ -32,7 +33,7 @@ typedef struct hv_tracer {
  * weighs c by the cotangent (Σ over bins of cot·W_τ) and the path's scores
  * go to the voxel gradient (3 blocks of `voxels`: σa, σs, g). */
 typedef struct hv_grad_tally {
-  const double *cotangent; /* the set's value layout */
+  const double *cotangent; /* the set's value layout; NULL in tangent mode */
   double *grad;
   size_t voxels;
   hv_path_log_t path, chain; /* scratch of the current path and connection */
@@ -41,6 +42,7 @@ typedef struct hv_grad_tally {
   uint8_t *touched;
   int64_t *touched_list;
   size_t touched_count;
+  hv_jvp_state_t jvp; /* tangent mode (transport/path_jvp.h); unused otherwise */
 } hv_grad_tally_t;
 
 /* Adds amount to entry (param block, voxel) of the tally's gradient. */
@@ -76,11 +78,13 @@ static inline void hv_grad_fold_extinction(hv_grad_tally_t *gt) {
 /* Adds every entry's score times (log->cum - entry.cum) to the gradient. */
 void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path_log_t *log);
 
-/* Where one batch of photons adds what it scores. */
+/* Where one batch of photons adds what it scores. In tangent mode
+ * (grad->jvp.tangents > 0) values holds T doubles per value of the set's
+ * layout: value n, tangent t at values[n·T + t]. */
 typedef struct hv_tally {
-  double *values;    /* the set's value layout (forward mode) */
+  double *values;    /* the set's value layout (forward and tangent modes) */
   double *ballistic; /* same layout, or NULL */
-  hv_grad_tally_t *grad; /* NULL: forward mode */
+  hv_grad_tally_t *grad; /* NULL: forward mode; see hv_grad_tally_t */
   double stats[HV_STAT_COUNT];
 } hv_tally_t;
 

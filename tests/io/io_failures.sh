@@ -107,7 +107,8 @@ need_mount() {
 
 reconstruct_files="measurements.exr checkpoint.bin loss.csv errors.csv maps.exr maps_sigma_a.png
   maps_sigma_s.png maps_g.png recovered_sigma_a.vol recovered_sigma_s.vol recovered_g.vol
-  truth_sigma_a.vol truth_sigma_s.vol truth_g.vol"
+  truth_sigma_a.vol truth_sigma_s.vol truth_g.vol bound.exr bound_sigma_a.png bound_sigma_s.png
+  bound_g.png"
 
 case $case_name in
 
@@ -166,14 +167,14 @@ not_folder)
   ;;
 
 full_disk)
-  # A tmpfs of 4 KiB to 64 KiB: each size fills up at a different output
+  # A tmpfs of 4 KiB to 128 KiB: each size fills up at a different output
   # file. Every run either succeeds with all its files, or fails naming the
   # reason without claiming it wrote them; none leaves a temporary behind.
   need_mount
   fs=$work/fs
   sizes_failed=0
   sizes_passed=0
-  for k in 4 8 12 16 20 24 28 32 36 40 44 48 52 56 60 64; do
+  for k in 4 8 12 16 20 24 28 32 36 40 44 48 52 56 60 64 80 96 112 128; do
     mount_tmpfs "$fs" size=${k}k || { fail "cannot mount a ${k}k tmpfs"; break; }
     run r$k hetinv-reconstruct "$scene" --threads 1 -o "$fs/out" --quiet
     if [ "$rc" -eq 0 ]; then
@@ -204,7 +205,8 @@ full_disk)
   done
   # A checkpoint larger than the stdio buffer: its fwrite itself fails.
   mount_tmpfs "$fs" size=12k || fail "cannot mount a 12k tmpfs"
-  run big hetinv-reconstruct "$src/tests/data/reconstruct/io_checkpoint.json" --threads 1 -o "$fs/big" --quiet
+  run big hetinv-reconstruct "$src/tests/data/reconstruct/io_checkpoint.json" --threads 1 -o "$fs/big" --quiet \
+    --no-bound
   expect_failure big "checkpoint.bin': No space left on device"
   expect_no_temporaries "$fs/big"
   unmount "$fs"

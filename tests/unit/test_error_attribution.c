@@ -74,6 +74,7 @@ static void check_failure(const char *name, hetinv_result_t r, const char *file,
   char prefix[NAME_CAPACITY + 2];
   snprintf(prefix, sizeof prefix, "%s: ", name);
   const char *last = hetinv_context_last_error_message(NULL);
+  if (getenv("HT_SHOW_MESSAGES")) fprintf(stderr, "%s\n", last);
   if (r == HETINV_SUCCESS) {
     print_error("%s:%d: %s succeeded; the test expects it to fail\n", file, line, name);
     mismatches++;
@@ -333,6 +334,18 @@ static void test_estimator(fixture_t *f) {
   EXPECT_FAIL(hetinv_estimator_loss_gradient,
               (f->estimator, f->medium, f->set, other, &loss, NULL, grad, 9));
   hetinv_param_map_destroy(&other);
+  /* hv_check_pi_map, shared by the J·v and Fisher passes: k or v_count is
+   * not the map's size */
+  double variances[9] = {1, 1, 1, 1, 1, 1, 1, 1, 1}, out[24], tangent[24] = {0};
+  int32_t positive_definite;
+  EXPECT_FAIL(hetinv_estimator_jvp,
+              (f->estimator, f->medium, f->set, f->map, tangent, 3, values, NULL, n));
+  EXPECT_FAIL(hetinv_estimator_fisher,
+              (f->estimator, f->medium, f->set, variances, n, f->map, 2, out, NULL, 3));
+  EXPECT_FAIL(hetinv_estimator_crb, (f->estimator, f->medium, f->set, variances, n, f->map, 2, out,
+                                     NULL, NULL, 3, &positive_definite));
+  EXPECT_FAIL(hetinv_estimator_fisher_diagonal,
+              (f->estimator, f->medium, f->set, variances, n, f->map, 2, out, NULL, 3));
 }
 
 static void test_io(fixture_t *f) {

@@ -1,0 +1,296 @@
+/* The Cramér–Rao bound of a scene's configuration at its ground truth:
+ * what the measurements can determine, per voxel and parameter, before
+ * (or beside) a reconstruction. Public API only. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "recon.h"
+
+/* The clean values come from recon_simulate's stream (with the bound's
+ * photons, not the data's: a few per cent of Monte Carlo error in a
+ * variance moves the bound by half as much, well inside its own error
+ * for the default replicates, and the render costs a fraction of the
+ * tangent passes). */
+#define RECON_TRUTH_STREAM 40000
+
+/* Per value, the acquisition model's variance at the clean value:
+ * (E·I + r²)/E² with the row's exposure E (the model's, or automatic as in
+ * recon_simulate); mask 0 for rows no light reaches (automatic exposure
+ * is undefined there and they carry no information). Without noise in the
+ * scene the model is still what a camera would add. */
+static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *sc,
+                                    const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
+                                    double *var, uint8_t *mask) {
+  size_t n = hetinv_measurements_value_count(im->set);
+  double *clean = calloc(n, sizeof *clean), *scratch = calloc(n, sizeof *scratch);
+  hetinv_estimator_t *est = NULL;
+  hetinv_result_t r = clean && scratch ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)photons);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, RECON_TRUTH_STREAM);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, clean, NULL, NULL, n);
+  const uint8_t *set_mask = hetinv_measurements_mask(im->set);
+  int32_t rows = hetinv_measurements_row_count(im->set);
+  for (int32_t row = 0; r == HETINV_SUCCESS && row < rows; ++row) {
+    size_t off = 0;
+    int32_t pixels = 0, bins = 0;
+    hetinv_measurements_row_layout(im->set, row, &off, &pixels, &bins);
+    size_t len = (size_t)pixels * (size_t)bins;
+    bool lit = false;
+    for (size_t i = 0; i < len; ++i) lit = lit || clean[off + i] > 0.0;
+    if (!lit) {
+      for (size_t i = 0; i < len; ++i) {
+        var[off + i] = 1.0;
+        mask[off + i] = 0;
+      }
+      continue;
+    }
+    hetinv_noise_model_t model = sc->noise_model;
+    model.first_index = off;
+    double exposure = 0.0;
+    r = hetinv_noise_apply(ctx, &model, clean + off, scratch + off, NULL, len, &exposure);
+    double read2 = model.read_noise * model.read_noise;
+    for (size_t i = 0; r == HETINV_SUCCESS && i < len; ++i) {
+      double e = exposure * clean[off + i] + read2;
+      /* A noiseless camera (read noise 0) still counts photons: at least
+       * one electron's variance keeps dark pixels finite. */
+      var[off + i] = (e > 1.0 ? e : 1.0) / (exposure * exposure);
+      mask[off + i] = set_mask[off + i];
+    }
+  }
+  hetinv_estimator_destroy(&est);
+  free(clean);
+  free(scratch);
+  return r;
+}
+
+static int compare_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
+static void summarise(recon_bound_t *b, size_t voxels) {
+  double *sorted = calloc(voxels, sizeof *sorted);
+  for (int p = 0; p < 3; ++p) {
+    size_t n = 0;
+    double sum = 0.0, mx = 0.0;
+    b->infinite[p] = b->undefined[p] = 0;
+    for (size_t v = 0; v < voxels; ++v) {
+      double x = b->rel[p][v];
+      if (isinf(x)) {
+        ++b->infinite[p];
+      } else if (isnan(x)) {
+        ++b->undefined[p];
+      } else {
+        if (sorted) sorted[n] = x;
+        ++n;
+        sum += x;
+        mx = fmax(mx, x);
+      }
+    }
+    b->mean[p] = n ? sum / (double)n : (double)NAN;
+    double se_sum = 0.0;
+    for (size_t v = 0; v < voxels; ++v) se_sum += isfinite(b->rel[p][v]) ? b->rel_se[p][v] : 0.0;
+    b->se_mean[p] = n ? se_sum / (double)n : (double)NAN;
+    b->max[p] = n ? mx : (double)NAN;
+    double lo_sum = 0.0;
+    size_t lo_n = 0;
+    for (size_t v = 0; v < voxels; ++v) {
+      if (isfinite(b->lower[p][v])) {
+        lo_sum += b->lower[p][v];
+        ++lo_n;
+      }
+    }
+    b->lower_mean[p] = lo_n ? lo_sum / (double)lo_n : (double)NAN;
+    b->median[p] = NAN;
+    if (sorted && n) {
+      qsort(sorted, n, sizeof *sorted, compare_double);
+      b->median[p] = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+    }
+  }
+  free(sorted);
+}
+
+hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *sc,
+                                    const hetinv_medium_t *truth, recon_imaging_t *im,
+                                    int64_t photons, int32_t replicates, recon_bound_t *b) {
+  memset(b, 0, sizeof *b);
+  double t0 = recon_now();
+  size_t n = hetinv_measurements_value_count(im->set), voxels = hetinv_medium_voxel_count(truth);
+  hetinv_param_map_t *map = NULL;
+  hetinv_estimator_t *est = NULL;
+  double *var = calloc(n, sizeof *var), *sd = NULL, *se = NULL, *pi = NULL, *lower = NULL;
+  uint8_t *mask = calloc(n, 1), *saved_mask = calloc(n, 1);
+  hetinv_result_t r = var && mask && saved_mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  if (r == HETINV_SUCCESS) r = hetinv_param_map_create_identity(truth, HETINV_FREE_ALL, &map);
+  size_t k = map ? hetinv_param_map_size(map) : 0;
+  if (r == HETINV_SUCCESS) {
+    sd = calloc(k, sizeof *sd);
+    lower = calloc(k, sizeof *lower);
+    se = calloc(k, sizeof *se);
+    pi = calloc(k, sizeof *pi);
+    for (int p = 0; p < 3; ++p) {
+      b->rel[p] = calloc(voxels, sizeof(double));
+      b->rel_se[p] = calloc(voxels, sizeof(double));
+      b->lower[p] = calloc(voxels, sizeof(double));
+      if (!b->rel[p] || !b->rel_se[p] || !b->lower[p]) r = HETINV_ERROR_OUT_OF_MEMORY;
+    }
+    if (!sd || !se || !pi || !lower) r = HETINV_ERROR_OUT_OF_MEMORY;
+  }
+  if (r == HETINV_SUCCESS) {
+    memcpy(saved_mask, hetinv_measurements_mask(im->set), n);
+    r = variances_of(ctx, sc, truth, im, photons, var, mask);
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_param_map_extract(map, truth, pi, k);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)photons);
+  if (r == HETINV_SUCCESS && sc->batches > 0) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, sc->batches);
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
+  if (r == HETINV_SUCCESS) {
+    r = hetinv_estimator_crb(est, truth, im->set, var, n, map, replicates, sd, se, lower, k,
+                             &b->positive_definite);
+    hetinv_result_t back = hetinv_measurements_set_mask(im->set, saved_mask, n);
+    if (r == HETINV_SUCCESS) r = back;
+  }
+  for (size_t i = 0; r == HETINV_SUCCESS && i < k; ++i) {
+    hetinv_param_t p = HETINV_PARAM_SIGMA_A;
+    size_t cell = 0;
+    r = hetinv_param_map_entry(map, i, &p, &cell);
+    b->rel[p][cell] = sd[i] / fabs(pi[i]);
+    b->rel_se[p][cell] = se[i] / fabs(pi[i]);
+    b->lower[p][cell] = lower[i] / fabs(pi[i]);
+  }
+  if (r == HETINV_SUCCESS) {
+    summarise(b, voxels);
+    b->done = true;
+    b->photons = photons;
+    b->replicates = replicates;
+    b->seconds = recon_now() - t0;
+  }
+  hetinv_estimator_destroy(&est);
+  hetinv_param_map_destroy(&map);
+  free(var);
+  free(mask);
+  free(saved_mask);
+  free(sd);
+  free(se);
+  free(pi);
+  free(lower);
+  if (r != HETINV_SUCCESS) recon_bound_release(b);
+  return r;
+}
+
+void recon_bound_release(recon_bound_t *b) {
+  for (int p = 0; p < 3; ++p) {
+    free(b->rel[p]);
+    free(b->rel_se[p]);
+    free(b->lower[p]);
+    b->rel[p] = b->rel_se[p] = b->lower[p] = NULL;
+  }
+  b->done = false;
+}
+
+void recon_bound_print(const recon_bound_t *b, FILE *f) {
+  fprintf(f, "\nCramer-Rao bound at the truth: predicted relative standard deviation of an unbiased\n"
+             "estimate, per voxel (%lld photons per emitter, %d replicates, %.1f s):\n",
+          (long long)b->photons, (int)b->replicates, b->seconds);
+  if (!b->positive_definite) {
+    fprintf(f, "  the estimated Fisher matrix is not positive definite: the measurements cannot tell\n"
+               "  some parameters apart at this photon count (more --bound-photons, or a coarser map)\n");
+  }
+  fprintf(f, "  parameter   mean       median     max        mean s.e.  undetermined\n");
+  for (int p = 0; p < 3; ++p) {
+    fprintf(f, "  %-9s %8.3g %%  %8.3g %%  %8.3g %%  %8.2g %%  %zu\n", hetinv_param_name(p),
+            100.0 * b->mean[p], 100.0 * b->median[p], 100.0 * b->max[p], 100.0 * b->se_mean[p],
+            b->infinite[p] + b->undefined[p]);
+  }
+  fprintf(f, "  lower bound sqrt(1/F_kk) (each value alone, the others known), mean:");
+  for (int p = 0; p < 3; ++p) fprintf(f, " %s %.3g %%", hetinv_param_name(p), 100.0 * b->lower_mean[p]);
+  fprintf(f, "\n");
+}
+
+/* Value of a per-voxel array at section pixel (x, z): the middle y slice. */
+static double section(const double *a, const int32_t d[3], int32_t x, int32_t z) {
+  return a[((size_t)z * (size_t)d[1] + (size_t)(d[1] / 2)) * (size_t)d[0] + (size_t)x];
+}
+
+hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc,
+                                  const hetinv_medium_t *truth, const recon_bound_t *b) {
+  int32_t d[3];
+  hetinv_medium_get_dims(truth, d);
+  char path[1200];
+  hetinv_image_t *img = NULL;
+  hetinv_result_t r = hetinv_image_create(ctx, d[0], d[2], 9, &img);
+  static const char *const kinds[3] = {"bound", "bound_std_error", "bound_lower"};
+  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
+    const double *src[3] = {b->rel[p], b->rel_se[p], b->lower[p]};
+    for (int which = 0; r == HETINV_SUCCESS && which < 3; ++which) {
+      char name[64];
+      snprintf(name, sizeof name, "%s_%s", kinds[which], hetinv_param_name(p));
+      int32_t c = 3 * p + which;
+      r = hetinv_image_set_channel_name(img, c, name);
+      float *px = hetinv_image_channel_data(img, c);
+      for (int32_t z = 0; z < d[2]; ++z) {
+        for (int32_t x = 0; x < d[0]; ++x) {
+          px[(size_t)z * (size_t)d[0] + (size_t)x] = (float)section(src[which], d, x, z);
+        }
+      }
+    }
+  }
+  if (r == HETINV_SUCCESS) {
+    r = hetinv_image_set_attribute_string(img, "hetinv:content",
+                                          "Cramer-Rao bound: relative standard deviation sd/value at the "
+                                          "truth, its jackknife error, and the lower bound sqrt(1/F_kk)/value; "
+                                          "x-z section at the middle of y; row = z");
+  }
+  snprintf(path, sizeof path, "%s/bound.exr", sc->output);
+  if (r == HETINV_SUCCESS) r = hetinv_image_write_exr(img, path);
+  hetinv_image_destroy(&img);
+  /* PNG previews, z up, on a common scale per parameter from 0 to the
+   * largest finite bound (infinite ones at the top of the scale). */
+  int32_t s = 256 / d[0] > 1 ? 256 / d[0] : 1;
+  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
+    double hi = isfinite(b->max[p]) && b->max[p] > 0.0 ? b->max[p] : 1.0;
+    r = hetinv_image_create(ctx, d[0] * s, d[2] * s, 1, &img);
+    if (r != HETINV_SUCCESS) break;
+    float *px = hetinv_image_channel_data(img, 0);
+    for (int32_t y = 0; y < d[2] * s; ++y) {
+      for (int32_t x = 0; x < d[0] * s; ++x) {
+        double v = section(b->rel[p], d, x / s, d[2] - 1 - y / s);
+        px[(size_t)y * (size_t)(d[0] * s) + (size_t)x] = (float)(isnan(v) ? 0.0 : fmin(v, hi));
+      }
+    }
+    snprintf(path, sizeof path, "%s/bound_%s.png", sc->output, hetinv_param_name(p));
+    r = hetinv_image_write_png(img, 0, path, 0.0, hi, HETINV_COLORMAP_VIRIDIS);
+    hetinv_image_destroy(&img);
+  }
+  return r;
+}
+
+void recon_bound_attach(const recon_bound_t *b, recon_errors_t *e) {
+  e->has_bound = b->done;
+  for (int p = 0; p < 3; ++p) {
+    e->bound_mean[p] = b->done ? b->mean[p] : (double)NAN;
+    e->achieved_over_bound[p] = b->done ? e->mean[p] / b->mean[p] : (double)NAN;
+  }
+}
+
+int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *sc,
+                    const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
+                    int32_t replicates, bool root, recon_bound_t *b) {
+  memset(b, 0, sizeof *b);
+  if (hetinv_context_rank_count(ctx) > 1) {
+    if (root) printf("%s: the bound is not computed with several MPI ranks\n", prog);
+    return 0;
+  }
+  if (recon_bound_compute(ctx, sc, truth, im, photons, replicates, b) != HETINV_SUCCESS) {
+    return recon_fail(prog, ctx, "bound");
+  }
+  if (!root) return 0;
+  recon_bound_print(b, stdout);
+  /* The caller says "wrote" once every file of the run is written. */
+  if (recon_bound_write(ctx, sc, truth, b) != HETINV_SUCCESS) return recon_fail(prog, ctx, "bound maps");
+  return 0;
+}

@@ -1,0 +1,153 @@
+/**
+ * @file bound.h
+ * @brief What measurements can determine: the Fisher information of the
+ *        free parameters and their Cramér–Rao bound.
+ *
+ * For rendered values I_n(π) measured with independent noise of variance
+ * σ²_n, the Fisher information of the parameter-map entries π is
+ * F = Jᵀ Σ⁻¹ J with J_nk = ∂I_n/∂π_k and Σ = diag(σ²_n); any unbiased
+ * estimate of π_k has a standard deviation of at least sqrt((F⁻¹)_kk),
+ * the Cramér–Rao bound (CRB). Values outside the set's mask do not count.
+ *
+ * The estimate of F is unbiased under Monte Carlo noise. Each of R
+ * independent replicates forms J column by column with one tangent pass
+ * of K one-hot tangents (hetinv_estimator_jvp() for every e_k at once:
+ * this does form J, K doubles per value, which is why K is limited to
+ * #HETINV_FISHER_MAX_ENTRIES), twice, from the independent photon streams
+ * s + 2r and s + 2r + 1 (s: the estimator's HETINV_ESTIMATOR_STREAM):
+ * F_r = ½(Ĵ₁ᵀΣ⁻¹Ĵ₂ + Ĵ₂ᵀΣ⁻¹Ĵ₁), whose expectation is F exactly because
+ * the factors share no photon. F̂ is the mean of the F_r and each entry's
+ * standard error is their spread / √R. One replicate costs two tangent
+ * passes, each roughly a render plus O(K) work per path event and splat.
+ *
+ * The bound sqrt((F̂⁻¹)_kk) is a smooth function of an unbiased F̂, so it
+ * is consistent but biased by O(1/photons) (by Jensen's inequality the
+ * inverse of a noisy matrix is, on average, larger); its standard error
+ * is the jackknife's over the R replicates. sqrt(1/F̂_kk) is also given:
+ * it is a LOWER bound on the CRB standard deviation ((F⁻¹)_kk ≥ 1/F_kk
+ * for a positive definite F), i.e. what entry k could reach if every
+ * other entry were known.
+ *
+ * Costs: 2R tangent passes, memory (threads + 5)·values·K + R·K² doubles
+ * plus 3·voxels·K for the pushed-forward tangents; the inversion is O(K³)
+ * per replicate (jackknife).
+ */
+#ifndef HETINV_BOUND_H
+#define HETINV_BOUND_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hetinv/estimator.h"
+#include "hetinv/export.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Largest parameter map (hetinv_param_map_size()) the dense Fisher
+ *  matrix and the bound accept. */
+#define HETINV_FISHER_MAX_ENTRIES 2048
+
+/** Largest number of replicates of the Fisher matrix. */
+#define HETINV_FISHER_MAX_REPLICATES 1024
+
+/**
+ * @brief Unbiased estimate of the Fisher information F = Jᵀ Σ⁻¹ J of the
+ *        map's entries, with standard errors (see the file's description).
+ * @param estimator the estimator: its photons, batches, stream s and epoch
+ *        are used; the replicates use streams s + 2r and s + 2r + 1.
+ * @param medium committed medium at which J is taken (e.g. the truth).
+ * @param set the measurement set: its layout and mask (values with mask 0
+ *        are left out); with @p variances NULL also its standard errors.
+ * @param variances @p count noise variances σ²_n of the measured values
+ *        (the acquisition model's); NULL: the set's standard errors
+ *        squared. Each value in the mask needs a finite positive variance.
+ * @param count the set's value count.
+ * @param map parameter map made for the medium's grid.
+ * @param replicates R, independent estimates averaged (2 to
+ *        #HETINV_FISHER_MAX_REPLICATES); more give smaller error bars.
+ * @param[out] fisher receives F̂, k·k values, row-major, symmetric.
+ * @param[out] fisher_std_errors the standard error of each entry (spread of
+ *        the replicates / √R, R − 1 degrees of freedom); may be NULL.
+ * @param k hetinv_param_map_size(map), at most #HETINV_FISHER_MAX_ENTRIES.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (count, k, replicates, a variance,
+ *         the map's grid, the medium's box); HETINV_ERROR_INVALID_STATE
+ *         (medium not committed); HETINV_ERROR_UNSUPPORTED (a context with
+ *         several MPI ranks); HETINV_ERROR_OUT_OF_MEMORY;
+ *         HETINV_ERROR_SIZE_OVERFLOW.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_fisher(
+    hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
+    const double *variances, size_t count, const hetinv_param_map_t *map, int32_t replicates,
+    double *fisher, double *fisher_std_errors, size_t k);
+
+/**
+ * @brief Per-entry Cramér–Rao standard deviation sqrt((F⁻¹)_kk), from the
+ *        Fisher matrix of hetinv_estimator_fisher() (same arguments).
+ *
+ * F̂ is inverted through its Cholesky factor, without regularisation.
+ * Entries whose diagonal is exactly zero in every replicate (no path
+ * reaches them, or the mask hides every value they affect) cannot be
+ * determined at all: their bound is +∞ and they are left out of the
+ * inversion. If the rest of F̂ is not positive definite (Monte Carlo noise
+ * in a nearly singular F, or parameters the measurements cannot tell
+ * apart), *positive_definite is 0, the bound is NaN and only @p sd_lower
+ * is meaningful; more photons or replicates, or a coarser map, help.
+ * @param estimator, medium, set, variances, count, map, replicates as for
+ *        hetinv_estimator_fisher().
+ * @param[out] sd receives k standard deviations, in the units of π.
+ * @param[out] sd_std_errors their jackknife standard errors over the
+ *        replicates (NaN if a leave-one-out matrix is not positive
+ *        definite; 0 for an infinite bound, which is exact); may be NULL.
+ * @param[out] sd_lower receives sqrt(1/F̂_kk), a LOWER bound on the CRB
+ *        standard deviation (NaN where F̂_kk ≤ 0 from noise); may be NULL.
+ * @param k hetinv_param_map_size(map).
+ * @param[out] positive_definite receives 1 if F̂ (without its unseen
+ *        entries) is positive definite, else 0; may be NULL.
+ * @return as hetinv_estimator_fisher(); a matrix that is not positive
+ *         definite is a result, not an error.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_crb(
+    hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
+    const double *variances, size_t count, const hetinv_param_map_t *map, int32_t replicates,
+    double *sd, double *sd_std_errors, double *sd_lower, size_t k, int32_t *positive_definite);
+
+/**
+ * @brief Matrix-free, unbiased estimate of the diagonal of F, for maps too
+ *        large for the dense matrix (any K).
+ *
+ * Hutchinson's estimator: for each of R Rademacher probes z (±1 entries
+ * from a hash of the context seed, the epoch, the probe and the entry,
+ * independent of the photons), one tangent pass gives Ĵ₁z on stream
+ * s + 2r and one gradient pass gives Ĵ₂ᵀ(Σ⁻¹Ĵ₁z) on stream s + 2r + 1;
+ * z ⊙ Ĵ₂ᵀΣ⁻¹Ĵ₁z has expectation F_kk exactly (E[z_k z_j] = δ_kj and the
+ * passes share no photon). Its spread holds Σ_{j≠k} F_kj² besides the
+ * Monte Carlo noise, so where neighbouring entries are strongly
+ * correlated many probes are needed; each costs two passes whatever K.
+ *
+ * With it, sqrt(1/F_kk) is a LOWER bound on the CRB standard deviation
+ * sqrt((F⁻¹)_kk) (equal only when entry k is uncorrelated with the
+ * others): what entry k could reach if all the others were known. It is
+ * not the bound itself; use hetinv_estimator_crb() where K allows.
+ * @param estimator, medium, set, variances, count, map as for
+ *        hetinv_estimator_fisher().
+ * @param probes R, from 2 to #HETINV_FISHER_MAX_REPLICATES.
+ * @param[out] diagonal receives k estimates of F_kk (a single one can be
+ *        ≤ 0 from noise).
+ * @param[out] diagonal_std_errors their standard errors (spread of the
+ *        probes / √R, R − 1 degrees of freedom); may be NULL.
+ * @param k hetinv_param_map_size(map).
+ * @return as hetinv_estimator_fisher(), without the limit on k.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
+    hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
+    const double *variances, size_t count, const hetinv_param_map_t *map, int32_t probes,
+    double *diagonal, double *diagonal_std_errors, size_t k);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* HETINV_BOUND_H */

@@ -1,0 +1,176 @@
+/* The tangent pass: Jacobian–vector products J·v of the rendered values,
+ * for T tangents at once, by the score log in tangent mode
+ * (transport/path_jvp.h). Reduction as in the forward pass (render.c):
+ * items run emitter-major, are reduced in item order, and batch means
+ * give each figure's standard error, so the result is bitwise the same
+ * for any thread count. */
+#include <math.h>
+#include <string.h>
+
+#include "core/alloc.h"
+#include "core/error.h"
+#include "estimator/batches.h"
+#include "estimator/pass.h"
+#include "medium/medium_internal.h"
+#include "param/param_map_internal.h"
+#include "sampling/measurements_internal.h"
+
+typedef struct tangent_pass {
+  const hv_pass_t *pass;
+  size_t T;
+  hv_tally_t *tallies;    /* one per thread; values: count·T */
+  hv_grad_tally_t *grads; /* one per thread: the score logs and running sums */
+  double *total, *mean_sum, *mean_sq; /* count·T each */
+  bool out_of_memory;
+} tangent_pass_t;
+
+static void run_item(void *self, int64_t item, int thread) {
+  tangent_pass_t *f = self;
+  hv_tally_t *tally = &f->tallies[thread];
+  int32_t e = f->pass->emitter_lo + (int32_t)(item / f->pass->batches);
+  const hv_plan_t *plan = &f->pass->plans.plan[e];
+  for (int32_t i = 0; i < plan->range_count; ++i) {
+    size_t n = plan->range_hi[i] - plan->range_lo[i];
+    memset(tally->values + plan->range_lo[i] * f->T, 0, n * f->T * sizeof(double));
+  }
+  hv_pass_trace_batch(f->pass, e, (int32_t)(item % f->pass->batches), tally);
+  hv_grad_tally_t *gt = &f->grads[thread];
+  if (gt->path.out_of_memory || gt->chain.out_of_memory) f->out_of_memory = true;
+}
+
+static void reduce_item(void *self, int64_t item, int thread) {
+  tangent_pass_t *f = self;
+  const hv_tally_t *tally = &f->tallies[thread];
+  const hv_pass_t *pass = f->pass;
+  int32_t e = pass->emitter_lo + (int32_t)(item / pass->batches);
+  const hv_plan_t *plan = &pass->plans.plan[e];
+  double n = hv_pass_batch_size(pass, (int32_t)(item % pass->batches));
+  for (int32_t i = 0; i < plan->range_count; ++i) {
+    for (size_t k = plan->range_lo[i] * f->T; k < plan->range_hi[i] * f->T; ++k) {
+      double x = tally->values[k], m = x / n;
+      f->total[k] += x;
+      f->mean_sum[k] += m;
+      f->mean_sq[k] += m * m;
+    }
+  }
+}
+
+static void release(const hetinv_context_t *ctx, tangent_pass_t *f, int threads) {
+  for (int t = 0; t < threads; ++t) {
+    if (f->tallies) hv_free(ctx, f->tallies[t].values);
+    if (f->grads) {
+      hv_free(ctx, f->grads[t].jvp.run);
+      hv_path_log_release(&f->grads[t].path);
+      hv_path_log_release(&f->grads[t].chain);
+    }
+  }
+  hv_free(ctx, f->tallies);
+  hv_free(ctx, f->grads);
+  hv_free(ctx, f->total);
+  hv_free(ctx, f->mean_sum);
+  hv_free(ctx, f->mean_sq);
+}
+
+hetinv_result_t hv_check_pi_map(const hetinv_context_t *ctx, const hetinv_param_map_t *map,
+                                const hetinv_medium_t *medium, size_t count, const char *what) {
+  if (map == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'map' is NULL");
+  if (!hv_param_map_fits(map, medium)) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "the parameter map was made for another grid than the medium's %d x %d x %d",
+                   (int)medium->dims[0], (int)medium->dims[1], (int)medium->dims[2]);
+  }
+  if (count != hetinv_param_map_size(map)) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "%s is %zu; the map has %zu entries",
+                   what, count, hetinv_param_map_size(map));
+  }
+  return HETINV_SUCCESS;
+}
+
+hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int32_t tangents,
+                               size_t count, double *values, double *std_errors) {
+  const hetinv_context_t *ctx = pass->ctx;
+  if (pass->ranks > 1) {
+    /* Every rank takes this branch: the same error everywhere, no exchange. */
+    return HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED,
+                   "Jacobian-vector products are not distributed over MPI ranks (%d ranks); "
+                   "use a context with one rank", (int)pass->ranks);
+  }
+  size_t voxels = (size_t)pass->grid.n[0] * (size_t)pass->grid.n[1] * (size_t)pass->grid.n[2];
+  tangent_pass_t f = {.pass = pass, .T = (size_t)tangents};
+  size_t n = 0;
+  if (!hv_mul_size(count, f.T, &n)) {
+    return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%zu values times %d tangents overflow",
+                   count, (int)tangents);
+  }
+  int threads = pass->threads;
+  f.tallies = hv_calloc(ctx, (size_t)threads, sizeof *f.tallies);
+  f.grads = hv_calloc(ctx, (size_t)threads, sizeof *f.grads);
+  f.total = hv_calloc(ctx, n ? n : 1, sizeof(double));
+  f.mean_sum = hv_calloc(ctx, n ? n : 1, sizeof(double));
+  f.mean_sq = hv_calloc(ctx, n ? n : 1, sizeof(double));
+  bool ok = f.tallies && f.grads && f.total && f.mean_sum && f.mean_sq;
+  for (int t = 0; ok && t < threads; ++t) {
+    hv_grad_tally_t *gt = &f.grads[t];
+    gt->path.ctx = gt->chain.ctx = ctx;
+    gt->voxels = voxels;
+    gt->jvp = (hv_jvp_state_t){.grid = &pass->grid, .tangent = tangent, .tangents = tangents,
+                               .voxels = voxels};
+    gt->jvp.run = hv_calloc(ctx, 2 * f.T, sizeof(double));
+    f.tallies[t].values = hv_calloc(ctx, n ? n : 1, sizeof(double));
+    f.tallies[t].grad = gt;
+    ok = gt->jvp.run && f.tallies[t].values;
+  }
+  if (ok) {
+    hv_batch_loop_t loop = {(int64_t)(pass->emitter_hi - pass->emitter_lo) * pass->batches,
+                            threads, &f, run_item, reduce_item};
+    hv_batches_run(&loop);
+    ok = !f.out_of_memory;
+  }
+  hetinv_result_t r = HETINV_SUCCESS;
+  if (!ok) {
+    r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
+                "cannot allocate the tangent buffers for %zu values and %d tangents", count,
+                (int)tangents);
+  } else {
+    double photons = (double)pass->photons;
+    for (size_t k = 0; k < n; ++k) {
+      values[k] = f.total[k] / photons;
+      if (std_errors) std_errors[k] = hv_batch_std_error(f.mean_sum[k], f.mean_sq[k], pass->batches);
+    }
+  }
+  release(ctx, &f, threads);
+  return r;
+}
+
+HETINV_API hetinv_result_t hetinv_estimator_jvp(hetinv_estimator_t *estimator,
+                                                const hetinv_medium_t *medium,
+                                                const hetinv_measurements_t *set,
+                                                const hetinv_param_map_t *map, const double *v,
+                                                size_t v_count, double *jv, double *jv_std_errors,
+                                                size_t count) {
+  HV_API_ENTER();
+  hv_pass_t pass;
+  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, &pass);
+  if (r != HETINV_SUCCESS) return r;
+  const hetinv_context_t *ctx = pass.ctx;
+  r = hv_check_pi_map(ctx, map, medium, v_count, "v_count");
+  if (r == HETINV_SUCCESS && v == NULL) r = HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'v' is NULL");
+  if (r == HETINV_SUCCESS && jv == NULL) r = HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'jv' is NULL");
+  for (size_t i = 0; r == HETINV_SUCCESS && i < v_count; ++i) {
+    if (!isfinite(v[i])) {
+      r = HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "v[%zu] is %g; it must be finite", i, v[i]);
+    }
+  }
+  double *tangent = NULL;
+  if (r == HETINV_SUCCESS) {
+    tangent = hv_calloc(ctx, 3 * medium->voxel_count, sizeof(double));
+    if (tangent == NULL) r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the tangent");
+  }
+  if (r == HETINV_SUCCESS) {
+    hv_param_map_pushforward(map, v, 1, tangent);
+    r = hv_tangent_run(&pass, tangent, 1, count, jv, jv_std_errors);
+  }
+  hv_free(ctx, tangent);
+  hv_pass_end(&pass);
+  return r;
+}

@@ -1,0 +1,103 @@
+#include "transport/path_jvp.h"
+
+#include <string.h>
+
+#include "sampling/pathlength_internal.h"
+
+void hv_jvp_path_begin(hv_jvp_state_t *st) {
+  memset(st->run, 0, (size_t)st->tangents * sizeof(double));
+  st->path_done = 0;
+  st->path_vertex = -1;
+}
+
+/* The tangents' entries of parameter block p at voxel k. */
+static const double *entries(const hv_jvp_state_t *st, int p, int64_t k) {
+  return st->tangent + ((size_t)p * st->voxels + (size_t)k) * (size_t)st->tangents;
+}
+
+void hv_jvp_chain_begin(hv_jvp_state_t *st, int64_t vertex, double dlog_dg) {
+  int32_t T = st->tangents;
+  double *run = st->run + T;
+  const double *g = entries(st, HETINV_PARAM_G, vertex);
+  for (int32_t t = 0; t < T; ++t) run[t] = dlog_dg * g[t];
+  st->chain_done = 0;
+  st->chain_vertex = -1;
+}
+
+/* run -= length·(v_σa + v_σs) of voxel k: a segment's transmittance score. */
+static void add_extinction(const hv_jvp_state_t *st, int64_t k, double length, double *run) {
+  const double *a = entries(st, HETINV_PARAM_SIGMA_A, k), *s = entries(st, HETINV_PARAM_SIGMA_S, k);
+  for (int32_t t = 0; t < st->tangents; ++t) run[t] -= length * (a[t] + s[t]);
+}
+
+static void add_scaled(const hv_jvp_state_t *st, int p, int64_t k, double x, double *run) {
+  const double *e = entries(st, p, k);
+  for (int32_t t = 0; t < st->tangents; ++t) run[t] += x * e[t];
+}
+
+/* A straight segment split into voxels as hv_grad_apply_log splits it;
+ * returns the voxel where it ends. */
+static int64_t add_ray(const hv_jvp_state_t *st, const hv_log_entry_t *e, double *run) {
+  const hv_grid_t *grid = st->grid;
+  hv_ray_t r;
+  memcpy(r.p, e->u.ray.p, sizeof r.p);
+  memcpy(r.d, e->u.ray.d, sizeof r.d);
+  hv_ray_locate(grid, &r);
+  hv_dda_t s;
+  hv_dda_init(grid, &r, &s);
+  hetinv_face_t face;
+  double length = e->u.ray.length;
+  for (double t = 0.0; t < length;) {
+    int a = hv_dda_axis(&s);
+    double end = s.t_next[a] < length ? s.t_next[a] : length;
+    add_extinction(st, r.k, end - t, run);
+    t = end;
+    if (t >= length || !hv_dda_advance(grid, &r, &s, a, t, &face)) break;
+  }
+  return r.k;
+}
+
+/* Adds the entries of `log` not yet summed to run. */
+static void catch_up(const hv_jvp_state_t *st, const hv_path_log_t *log, size_t *done,
+                     int64_t *vertex, double *run) {
+  for (size_t i = *done; i < log->count; ++i) {
+    const hv_log_entry_t *e = &log->entries[i];
+    if (e->kind == HV_LOG_RAY) {
+      *vertex = add_ray(st, e, run);
+      if (e->u.ray.scatter != 0.0) add_scaled(st, HETINV_PARAM_SIGMA_S, *vertex, e->u.ray.scatter, run);
+      continue;
+    }
+    int64_t k = e->u.at.voxel;
+    if (k < 0) k = *vertex; /* the vertex that ended the last ray */
+    if (k < 0) {
+      hv_ray_t r = {.p = {e->u.at.p[0], e->u.at.p[1], e->u.at.p[2]}, .d = {0.0, 0.0, 0.0}};
+      hv_ray_locate(st->grid, &r);
+      k = r.k;
+    }
+    switch (e->kind) {
+      case HV_LOG_SEGMENT: add_extinction(st, k, e->u.at.value, run); break;
+      case HV_LOG_SCATTER: add_scaled(st, HETINV_PARAM_SIGMA_S, k, e->u.at.value, run); break;
+      case HV_LOG_PHASE: add_scaled(st, HETINV_PARAM_G, k, e->u.at.value, run); break;
+      case HV_LOG_RAY: break;
+    }
+  }
+  *done = log->count;
+}
+
+void hv_jvp_splat(hv_jvp_state_t *st, const hv_path_log_t *path, const hv_path_log_t *chain,
+                  const hetinv_pathlength_t *pl, double tau, double value, double *dst,
+                  size_t stride) {
+  int32_t T = st->tangents;
+  double *run = st->run, *chain_run = st->run + T;
+  catch_up(st, path, &st->path_done, &st->path_vertex, run);
+  if (chain) catch_up(st, chain, &st->chain_done, &st->chain_vertex, chain_run);
+  HV_FOR_EACH_BIN(pl, tau, {
+    double *d = dst + (size_t)bin * stride;
+    double x = value * weight;
+    if (chain) {
+      for (int32_t t = 0; t < T; ++t) d[t] += x * (run[t] + chain_run[t]);
+    } else {
+      for (int32_t t = 0; t < T; ++t) d[t] += x * run[t];
+    }
+  });
+}
