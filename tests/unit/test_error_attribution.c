@@ -74,7 +74,7 @@ static void check_failure(const char *name, hetinv_result_t r, const char *file,
   char prefix[NAME_CAPACITY + 2];
   snprintf(prefix, sizeof prefix, "%s: ", name);
   const char *last = hetinv_context_last_error_message(NULL);
-  if (getenv("HT_SHOW_MESSAGES")) fprintf(stderr, "%s\n", last);
+  if (getenv("HT_SHOW_MESSAGES")) fprintf(stderr, "%s\n", last); /* to review the table */
   if (r == HETINV_SUCCESS) {
     print_error("%s:%d: %s succeeded; the test expects it to fail\n", file, line, name);
     mismatches++;
