@@ -27,6 +27,15 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, h
                                  .albedo = st > 0.0 ? ss[i] / st : 0.0,
                                  .g = g[i]};
   }
+  double majorant = 0.0, sum = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    double st = out->voxel[i].sigma_t;
+    majorant = st > majorant ? st : majorant;
+    sum += st;
+  }
+  out->majorant = majorant;
+  out->inv_majorant = 1.0 / majorant;
+  out->mean_sigma_t = sum / (double)n;
   const hv_voxel_t *v0 = &out->voxel[0];
   out->uniform = 1;
   out->inv_sigma_t = v0->inv_sigma_t;
@@ -60,4 +69,9 @@ void hv_grid_release(hv_grid_t *grid) {
   hv_free(grid->ctx, grid->face_storage);
   grid->voxel = NULL;
   grid->face_storage = NULL;
+}
+
+int hv_grid_prefers_delta(const hv_grid_t *g) {
+  if (g->uniform || !(g->majorant > 0.0 && g->majorant < HUGE_VAL)) return 0;
+  return 1;
 }
