@@ -73,5 +73,15 @@ void hv_grid_release(hv_grid_t *grid) {
 
 int hv_grid_prefers_delta(const hv_grid_t *g) {
   if (g->uniform || !(g->majorant > 0.0 && g->majorant < HUGE_VAL)) return 0;
-  return 1;
+  /* Per unit length, delta tracking makes σ̄ - σt null collisions where
+   * regular tracking crosses Σ_a |d_a| / h_a faces, 1/(2 h_a) per axis
+   * averaged over directions; both cost a voxel look-up and an
+   * unpredictable branch, a null collision a few random numbers more.
+   * Delta tracking is the faster when the grid's mean excess is the
+   * smaller (A1 with ±50 % per-voxel σa, σs: 5.5 against 15 per mm). A
+   * grid with a few dense voxels in a thin or empty medium, where null
+   * collisions would swamp the real ones, keeps regular tracking. */
+  double faces = 0.0;
+  for (int a = 0; a < 3; ++a) faces += 0.5 * g->inv_h[a];
+  return g->majorant - g->mean_sigma_t <= faces;
 }
