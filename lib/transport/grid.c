@@ -31,11 +31,16 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, h
   for (size_t i = 0; i < n; ++i) {
     double st = out->voxel[i].sigma_t;
     majorant = st > majorant ? st : majorant;
-    sum += st;
+  }
+  /* The mean as σ̄ times the mean of σt/σ̄ (each <= 1): a sum of σt near
+   * DBL_MAX would overflow, and an infinite mean would choose delta
+   * tracking for a grid where it never ends. */
+  if (majorant > 0.0 && majorant < HUGE_VAL) {
+    for (size_t i = 0; i < n; ++i) sum += out->voxel[i].sigma_t / majorant;
   }
   out->majorant = majorant;
   out->inv_majorant = 1.0 / majorant;
-  out->mean_sigma_t = sum / (double)n;
+  out->mean_sigma_t = majorant * (sum / (double)n);
   const hv_voxel_t *v0 = &out->voxel[0];
   out->uniform = 1;
   out->inv_sigma_t = v0->inv_sigma_t;
