@@ -20,27 +20,15 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, h
   }
   const double *sa = medium->values[HETINV_PARAM_SIGMA_A], *ss = medium->values[HETINV_PARAM_SIGMA_S];
   const double *g = medium->values[HETINV_PARAM_G];
+  double majorant = 0.0;
   for (size_t i = 0; i < n; ++i) {
     double st = sa[i] + ss[i];
     out->voxel[i] = (hv_voxel_t){.sigma_t = st,
                                  .inv_sigma_t = 1.0 / st,
                                  .albedo = st > 0.0 ? ss[i] / st : 0.0,
                                  .g = g[i]};
-  }
-  double majorant = 0.0, sum = 0.0;
-  for (size_t i = 0; i < n; ++i) {
-    double st = out->voxel[i].sigma_t;
     majorant = st > majorant ? st : majorant;
   }
-  /* The mean as σ̄ times the mean of σt/σ̄ (each <= 1): a sum of σt near
-   * DBL_MAX would overflow, and an infinite mean would choose delta
-   * tracking for a grid where it never ends. */
-  if (majorant > 0.0 && majorant < HUGE_VAL) {
-    for (size_t i = 0; i < n; ++i) sum += out->voxel[i].sigma_t / majorant;
-  }
-  out->majorant = majorant;
-  out->inv_majorant = 1.0 / majorant;
-  out->mean_sigma_t = majorant * (sum / (double)n);
   const hv_voxel_t *v0 = &out->voxel[0];
   out->uniform = 1;
   out->inv_sigma_t = v0->inv_sigma_t;
@@ -48,6 +36,17 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, h
     out->uniform = out->voxel[i].sigma_t == v0->sigma_t && out->voxel[i].albedo == v0->albedo &&
                    out->voxel[i].g == v0->g;
   }
+  out->majorant = majorant;
+  out->inv_majorant = 1.0 / majorant;
+  /* The mean as σ̄ times the mean of σt/σ̄ (each <= 1): a sum of σt near
+   * DBL_MAX would overflow, and an infinite mean would choose delta
+   * tracking for a grid where it never ends. Only delta tracking's choice
+   * needs it: not computed for a uniform grid. */
+  double sum = 0.0;
+  if (!out->uniform && majorant > 0.0 && majorant < HUGE_VAL) {
+    for (size_t i = 0; i < n; ++i) sum += out->voxel[i].sigma_t * out->inv_majorant;
+  }
+  out->mean_sigma_t = out->uniform ? v0->sigma_t : majorant * (sum / (double)n);
   out->sigma_s = ss;
   int64_t stride = 1;
   double *face = out->face_storage;
