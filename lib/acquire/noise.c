@@ -21,6 +21,7 @@ enum { HV_NOISE_STREAM_PHOTONS = 0, HV_NOISE_STREAM_READ = 1 };
 #define HV_NOISE_PARALLEL_MIN 4096
 
 HETINV_API void hetinv_noise_model_default(hetinv_noise_model_t *model) {
+  HV_API_ENTER();
   if (model == NULL) return;
   *model = (hetinv_noise_model_t){.size = sizeof(hetinv_noise_model_t),
                                   .full_well = 20000.0,
@@ -31,31 +32,30 @@ HETINV_API void hetinv_noise_model_default(hetinv_noise_model_t *model) {
                                   .first_index = 0};
 }
 
-static hetinv_result_t check_model(const hetinv_context_t *ctx, const char *func,
-                                   const hetinv_noise_model_t *m) {
+static hetinv_result_t check_model(const hetinv_context_t *ctx, const hetinv_noise_model_t *m) {
   if (m->size < HV_NOISE_MODEL_V1_SIZE) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "model->size is %zu; it must be at least %zu (use hetinv_noise_model_default)",
                    m->size, (size_t)HV_NOISE_MODEL_V1_SIZE);
   }
   if (!(isfinite(m->full_well) && m->full_well > 0.0 &&
         m->full_well <= HETINV_NOISE_FULL_WELL_MAX)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "model->full_well is %g; it must be finite, > 0 and <= %g electrons",
                    m->full_well, HETINV_NOISE_FULL_WELL_MAX);
   }
   if (!(isfinite(m->read_noise) && m->read_noise >= 0.0)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "model->read_noise is %g; it must be finite and >= 0 electrons",
                    m->read_noise);
   }
   if (!(isfinite(m->exposure) && m->exposure >= 0.0)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "model->exposure is %g; it must be finite and > 0, or 0 for automatic exposure",
                    m->exposure);
   }
   if (!(m->auto_level > 0.0 && m->auto_level <= 1.0)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "model->auto_level is %g; it must be in (0, 1]", m->auto_level);
   }
   return HETINV_SUCCESS;
@@ -85,12 +85,13 @@ HETINV_API hetinv_result_t hetinv_noise_apply(hetinv_context_t *ctx,
                                               const double *clean, double *noisy,
                                               double *std_errors, size_t count,
                                               double *exposure_used) {
+  HV_API_ENTER();
   if (exposure_used != NULL) *exposure_used = 0.0;
   HV_CHECK_NULL(ctx, ctx);
   HV_CHECK_NULL(ctx, model);
   HV_CHECK_NULL(ctx, clean);
   HV_CHECK_NULL(ctx, noisy);
-  hetinv_result_t r = check_model(ctx, __func__, model);
+  hetinv_result_t r = check_model(ctx, model);
   if (r != HETINV_SUCCESS) return r;
   if (count == 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "count is 0; there must be a value");

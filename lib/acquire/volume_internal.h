@@ -8,11 +8,11 @@
 #include "hetinv/medium.h"
 
 /* NULL_ARGUMENT for a NULL medium, INVALID_STATE for a committed one. */
-hetinv_result_t hv_volume_check_medium(const hetinv_medium_t *medium, const char *func);
+hetinv_result_t hv_volume_check_medium(const hetinv_medium_t *medium);
 
 /* Each parameter's range [lo[p], hi[p]]: finite, lo <= hi, and allowed by
  * the medium (σ >= 0, -1 < g < 1). Messages name "spec->lo[p] (name)". */
-hetinv_result_t hv_volume_check_ranges(const hetinv_context_t *ctx, const char *func,
+hetinv_result_t hv_volume_check_ranges(const hetinv_context_t *ctx,
                                        const double lo[3], const double hi[3]);
 
 /* lo·(1 − t) + hi·t for t in [0, 1], clamped to [lo, hi]: exactly lo at
@@ -26,7 +26,6 @@ static inline double hv_voxel_centre(double lo, double hi, int32_t n, int32_t i)
 
 /* Writes the three arrays (voxel_count values each) into the medium with
  * hetinv_medium_set_grid; the values must already be valid. */
-hetinv_result_t hv_volume_store(hetinv_medium_t *medium, const char *func,
-                                double *const values[3]);
+hetinv_result_t hv_volume_store(hetinv_medium_t *medium, double *const values[3]);
 
 #endif

@@ -13,6 +13,7 @@
 #define HV_MIXTURE_SPEC_V1_SIZE (offsetof(hetinv_mixture_spec_t, seed) + sizeof(uint64_t))
 
 HETINV_API void hetinv_mixture_spec_default(hetinv_mixture_spec_t *spec) {
+  HV_API_ENTER();
   if (spec == NULL) return;
   *spec = (hetinv_mixture_spec_t){.size = sizeof(hetinv_mixture_spec_t),
                                   .lo = {0.05, 1.0, 0.0},
@@ -24,31 +25,30 @@ HETINV_API void hetinv_mixture_spec_default(hetinv_mixture_spec_t *spec) {
                                   .seed = 0};
 }
 
-static hetinv_result_t check_spec(const hetinv_context_t *ctx, const char *func,
-                                  const hetinv_mixture_spec_t *s) {
+static hetinv_result_t check_spec(const hetinv_context_t *ctx, const hetinv_mixture_spec_t *s) {
   if (s->size < HV_MIXTURE_SPEC_V1_SIZE) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->size is %zu; it must be at least %zu (use hetinv_mixture_spec_default)",
                    s->size, (size_t)HV_MIXTURE_SPEC_V1_SIZE);
   }
-  hetinv_result_t r = hv_volume_check_ranges(ctx, func, s->lo, s->hi);
+  hetinv_result_t r = hv_volume_check_ranges(ctx, s->lo, s->hi);
   if (r != HETINV_SUCCESS) return r;
   if (s->components < 1 || s->components > HETINV_MIXTURE_COMPONENTS_MAX) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->components is %d; it must be in [1, %d]", (int)s->components,
                    HETINV_MIXTURE_COMPONENTS_MAX);
   }
   if (!(isfinite(s->min_width) && s->min_width > 0.0)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->min_width is %g; it must be finite and > 0", s->min_width);
   }
   if (!(isfinite(s->max_width) && s->max_width >= s->min_width)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->max_width is %g; it must be finite and >= spec->min_width (%g)",
                    s->max_width, s->min_width);
   }
   if (s->constant_axis < -1 || s->constant_axis > 2) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->constant_axis is %d; it must be -1 (3D), 0, 1 or 2",
                    (int)s->constant_axis);
   }
@@ -115,11 +115,12 @@ static void fill_parameter(const hetinv_mixture_spec_t *s, const hetinv_medium_t
 
 HETINV_API hetinv_result_t hetinv_volume_gaussian_mixture(hetinv_medium_t *medium,
                                                           const hetinv_mixture_spec_t *spec) {
-  hetinv_result_t r = hv_volume_check_medium(medium, __func__);
+  HV_API_ENTER();
+  hetinv_result_t r = hv_volume_check_medium(medium);
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = medium->ctx;
   HV_CHECK_NULL(ctx, spec);
-  r = check_spec(ctx, __func__, spec);
+  r = check_spec(ctx, spec);
   if (r != HETINV_SUCCESS) return r;
   /* L: the largest side among the axes the field varies along. */
   double side = 0.0;
@@ -138,7 +139,7 @@ HETINV_API hetinv_result_t hetinv_volume_gaussian_mixture(hetinv_medium_t *mediu
   for (hetinv_param_t p = 0; p < HETINV_PARAM_COUNT; ++p) {
     fill_parameter(spec, medium, side, p, values[p]);
   }
-  r = hv_volume_store(medium, __func__, values);
+  r = hv_volume_store(medium, values);
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) hv_free(ctx, values[p]);
   return r;
 }

@@ -20,6 +20,7 @@
 #define HV_SMOKE_SHAPE_INDEX (UINT64_C(1) << 40)
 
 HETINV_API void hetinv_smoke_spec_default(hetinv_smoke_spec_t *spec) {
+  HV_API_ENTER();
   if (spec == NULL) return;
   *spec = (hetinv_smoke_spec_t){.size = sizeof(hetinv_smoke_spec_t),
                                 .lo = {0.01, 0.1, 0.3},
@@ -29,22 +30,21 @@ HETINV_API void hetinv_smoke_spec_default(hetinv_smoke_spec_t *spec) {
                                 .seed = 0};
 }
 
-static hetinv_result_t check_spec(const hetinv_context_t *ctx, const char *func,
-                                  const hetinv_smoke_spec_t *s) {
+static hetinv_result_t check_spec(const hetinv_context_t *ctx, const hetinv_smoke_spec_t *s) {
   if (s->size < HV_SMOKE_SPEC_V1_SIZE) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->size is %zu; it must be at least %zu (use hetinv_smoke_spec_default)",
                    s->size, (size_t)HV_SMOKE_SPEC_V1_SIZE);
   }
-  hetinv_result_t r = hv_volume_check_ranges(ctx, func, s->lo, s->hi);
+  hetinv_result_t r = hv_volume_check_ranges(ctx, s->lo, s->hi);
   if (r != HETINV_SUCCESS) return r;
   if (s->octaves < 1 || s->octaves > HETINV_SMOKE_OCTAVES_MAX) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->octaves is %d; it must be in [1, %d]", (int)s->octaves,
                    HETINV_SMOKE_OCTAVES_MAX);
   }
   if (!(s->feature_size >= HETINV_SMOKE_FEATURE_MIN && s->feature_size <= 1.0)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "spec->feature_size is %g; it must be in [%g, 1]", s->feature_size,
                    HETINV_SMOKE_FEATURE_MIN);
   }
@@ -141,11 +141,12 @@ static double evaluate(const hetinv_medium_t *m, const plume_t *plume,
 
 HETINV_API hetinv_result_t hetinv_volume_smoke(hetinv_medium_t *medium,
                                                const hetinv_smoke_spec_t *spec) {
-  hetinv_result_t r = hv_volume_check_medium(medium, __func__);
+  HV_API_ENTER();
+  hetinv_result_t r = hv_volume_check_medium(medium);
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = medium->ctx;
   HV_CHECK_NULL(ctx, spec);
-  r = check_spec(ctx, __func__, spec);
+  r = check_spec(ctx, spec);
   if (r != HETINV_SUCCESS) return r;
   double side[3], length = 0.0;
   for (int a = 0; a < 3; ++a) {
@@ -180,7 +181,7 @@ HETINV_API hetinv_result_t hetinv_volume_smoke(hetinv_medium_t *medium,
     ss[i] = hv_volume_lerp(lo[HETINV_PARAM_SIGMA_S], hi[HETINV_PARAM_SIGMA_S], d);
     g[i] = hv_volume_lerp(lo[HETINV_PARAM_G], hi[HETINV_PARAM_G], g[i]);
   }
-  r = hv_volume_store(medium, __func__, values);
+  r = hv_volume_store(medium, values);
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) hv_free(ctx, values[p]);
   return r;
 }

@@ -10,13 +10,18 @@
 #include "hetinv/mpi.h"
 #endif
 
-HETINV_API int32_t hetinv_context_rank(const hetinv_context_t *ctx) { return ctx ? ctx->rank : 0; }
+HETINV_API int32_t hetinv_context_rank(const hetinv_context_t *ctx) {
+  HV_API_ENTER();
+  return ctx ? ctx->rank : 0;
+}
 
 HETINV_API int32_t hetinv_context_rank_count(const hetinv_context_t *ctx) {
+  HV_API_ENTER();
   return ctx ? ctx->rank_count : 1;
 }
 
 HETINV_API int hetinv_build_has_mpi(void) {
+  HV_API_ENTER();
 #ifdef HETINV_WITH_MPI
   return 1;
 #else
@@ -26,8 +31,7 @@ HETINV_API int hetinv_build_has_mpi(void) {
 
 #ifndef HETINV_WITH_MPI
 
-hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx, const char *func) {
-  (void)func;
+hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx) {
   ctx->rank = 0;
   ctx->rank_count = 1;
   return HETINV_SUCCESS;
@@ -36,14 +40,13 @@ hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx, const char *func) {
 void hv_comm_context_release(hetinv_context_t *ctx) { (void)ctx; }
 
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
-                                  hetinv_result_t status, const char *func, double **all,
-                                  size_t *all_count) {
+                                  hetinv_result_t status, double **all, size_t *all_count) {
   (void)data;
   (void)count;
   *all = NULL;
   *all_count = 0;
   if (status != HETINV_SUCCESS) return status;
-  return hv_fail(ctx, HETINV_ERROR_INTERNAL, func, "a collective was called in a build without MPI");
+  return HV_FAIL(ctx, HETINV_ERROR_INTERNAL, "a collective was called in a build without MPI");
 }
 
 #else /* HETINV_WITH_MPI */
@@ -56,21 +59,20 @@ static bool mpi_usable(void) {
   return initialised && !finalised;
 }
 
-static hetinv_result_t mpi_fail(const hetinv_context_t *ctx, const char *func, const char *call,
-                                int err) {
+static hetinv_result_t mpi_fail(const hetinv_context_t *ctx, const char *call, int err) {
   char text[MPI_MAX_ERROR_STRING];
   int len = 0;
   if (MPI_Error_string(err, text, &len) != MPI_SUCCESS) len = 0;
   text[len < MPI_MAX_ERROR_STRING ? len : MPI_MAX_ERROR_STRING - 1] = '\0';
-  return hv_fail(ctx, HETINV_ERROR_INTERNAL, func, "%s failed with MPI error %d (%s)", call, err,
+  return HV_FAIL(ctx, HETINV_ERROR_INTERNAL, "%s failed with MPI error %d (%s)", call, err,
                  len > 0 ? text : "no description");
 }
 
 /* Dups comm into ctx, replacing (and freeing) the context's previous dup. */
-static hetinv_result_t attach(hetinv_context_t *ctx, MPI_Comm comm, const char *func) {
+static hetinv_result_t attach(hetinv_context_t *ctx, MPI_Comm comm) {
   MPI_Comm dup = MPI_COMM_NULL;
   int err = MPI_Comm_dup(comm, &dup);
-  if (err != MPI_SUCCESS) return mpi_fail(ctx, func, "MPI_Comm_dup", err);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Comm_dup", err);
   /* Failures of the library's own calls come back as codes, not aborts. */
   MPI_Comm_set_errhandler(dup, MPI_ERRORS_RETURN);
   int rank = 0, size = 1;
@@ -83,12 +85,12 @@ static hetinv_result_t attach(hetinv_context_t *ctx, MPI_Comm comm, const char *
   return HETINV_SUCCESS;
 }
 
-hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx, const char *func) {
+hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx) {
   ctx->comm = MPI_COMM_NULL;
   ctx->rank = 0;
   ctx->rank_count = 1;
   if (!mpi_usable()) return HETINV_SUCCESS; /* serial: rank 0 of 1 */
-  return attach(ctx, MPI_COMM_WORLD, func);
+  return attach(ctx, MPI_COMM_WORLD);
 }
 
 void hv_comm_context_release(hetinv_context_t *ctx) {
@@ -99,6 +101,7 @@ void hv_comm_context_release(hetinv_context_t *ctx) {
 }
 
 HETINV_API hetinv_result_t hetinv_context_set_mpi_comm(hetinv_context_t *ctx, MPI_Comm comm) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, ctx);
   if (!mpi_usable()) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE,
@@ -109,34 +112,33 @@ HETINV_API hetinv_result_t hetinv_context_set_mpi_comm(hetinv_context_t *ctx, MP
   }
   int inter = 0;
   int err = MPI_Comm_test_inter(comm, &inter);
-  if (err != MPI_SUCCESS) return mpi_fail(ctx, __func__, "MPI_Comm_test_inter", err);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Comm_test_inter", err);
   if (inter) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "comm is an intercommunicator; an intracommunicator is needed");
   }
-  return attach(ctx, comm, __func__);
+  return attach(ctx, comm);
 }
 
 /* Collective: the status of the first rank (in rank order) that failed,
  * HETINV_SUCCESS if none did. Ranks other than the failing one record a
  * message naming it; the failing rank keeps its own. */
-static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status, const char *func) {
+static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status) {
   int ranks = ctx->rank_count;
   int mine = status != HETINV_SUCCESS ? ctx->rank : ranks, first = ranks;
   int err = MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, ctx->comm);
-  if (err != MPI_SUCCESS) return mpi_fail(ctx, func, "MPI_Allreduce", err);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Allreduce", err);
   if (first == ranks) return HETINV_SUCCESS;
   int code = status;
   err = MPI_Bcast(&code, 1, MPI_INT, first, ctx->comm);
-  if (err != MPI_SUCCESS) return mpi_fail(ctx, func, "MPI_Bcast", err);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Bcast", err);
   if (status != HETINV_SUCCESS) return status;
-  return hv_fail(ctx, code, func, "rank %d of %d failed with %s (its own message says why)", first,
+  return HV_FAIL(ctx, code, "rank %d of %d failed with %s (its own message says why)", first,
                  ranks, hetinv_result_name(code));
 }
 
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
-                                  hetinv_result_t status, const char *func, double **all,
-                                  size_t *all_count) {
+                                  hetinv_result_t status, double **all, size_t *all_count) {
   *all = NULL;
   *all_count = 0;
   int ranks = ctx->rank_count;
@@ -144,19 +146,19 @@ hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *dat
   int *counts = hv_calloc(ctx, (size_t)ranks, sizeof(int));
   int *displs = hv_calloc(ctx, (size_t)ranks, sizeof(int));
   if (status == HETINV_SUCCESS && (sizes == NULL || counts == NULL || displs == NULL)) {
-    status = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the counts of %d ranks",
+    status = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the counts of %d ranks",
                      ranks);
   }
-  hetinv_result_t r = agree(ctx, status, func);
+  hetinv_result_t r = agree(ctx, status);
   int64_t mine = (int64_t)count, total = 0;
   if (r == HETINV_SUCCESS) {
     int err = MPI_Allgather(&mine, 1, MPI_INT64_T, sizes, 1, MPI_INT64_T, ctx->comm);
-    if (err != MPI_SUCCESS) r = mpi_fail(ctx, func, "MPI_Allgather", err);
+    if (err != MPI_SUCCESS) r = mpi_fail(ctx, "MPI_Allgather", err);
   }
   for (int k = 0; r == HETINV_SUCCESS && k < ranks; ++k) total += sizes[k];
   if (r == HETINV_SUCCESS && total > INT_MAX) {
     /* The same on every rank: all stop here. */
-    r = hv_fail(ctx, HETINV_ERROR_UNSUPPORTED, func,
+    r = HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED,
                 "the ranks' partial results hold %lld doubles; MPI_Allgatherv takes at most %d",
                 (long long)total, INT_MAX);
   }
@@ -170,14 +172,14 @@ hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *dat
     buf = hv_calloc(ctx, (size_t)total, sizeof(double));
     hetinv_result_t mine_r = HETINV_SUCCESS;
     if (buf == NULL) {
-      mine_r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+      mine_r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                        "cannot allocate %lld doubles for the gathered results", (long long)total);
     }
-    r = agree(ctx, mine_r, func);
+    r = agree(ctx, mine_r);
   }
   if (r == HETINV_SUCCESS && total > 0) {
     int err = MPI_Allgatherv(data, (int)count, MPI_DOUBLE, buf, counts, displs, MPI_DOUBLE, ctx->comm);
-    if (err != MPI_SUCCESS) r = mpi_fail(ctx, func, "MPI_Allgatherv", err);
+    if (err != MPI_SUCCESS) r = mpi_fail(ctx, "MPI_Allgatherv", err);
   }
   hv_free(ctx, sizes);
   hv_free(ctx, counts);

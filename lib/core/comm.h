@@ -13,7 +13,7 @@
 
 /* Called by hetinv_context_create on the new context: attaches a dup of
  * MPI_COMM_WORLD when MPI is initialised (MPI build only). */
-hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx, const char *func);
+hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx);
 /* Called by hetinv_context_destroy: frees the context's dup, if any. */
 void hv_comm_context_release(hetinv_context_t *ctx);
 
@@ -33,7 +33,6 @@ static inline void hv_comm_block(int64_t n, int32_t rank, int32_t ranks, int64_t
  * of the first failing rank: a failing rank keeps its own message, the
  * others record one naming the failing rank. */
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
-                                  hetinv_result_t status, const char *func, double **all,
-                                  size_t *all_count);
+                                  hetinv_result_t status, double **all, size_t *all_count);
 
 #endif

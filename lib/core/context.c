@@ -17,6 +17,7 @@
 
 HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *init,
                                                  hetinv_context_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, out);
   *out = NULL;
   hetinv_context_init_t opts = HETINV_CONTEXT_INIT_DEFAULT;
@@ -60,7 +61,7 @@ HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *in
     return HV_FAIL(&proto, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu bytes", sizeof *ctx);
   }
   *ctx = proto;
-  hetinv_result_t r = hv_comm_context_init(ctx, __func__);
+  hetinv_result_t r = hv_comm_context_init(ctx);
   if (r != HETINV_SUCCESS) {
     hv_free(&proto, ctx);
     return r;
@@ -70,6 +71,7 @@ HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *in
 }
 
 HETINV_API void hetinv_context_destroy(hetinv_context_t **ctx) {
+  HV_API_ENTER();
   if (ctx == NULL || *ctx == NULL) return;
   hv_comm_context_release(*ctx);
   hetinv_context_t copy = **ctx; /* the hooks outlive the block they free */
@@ -78,9 +80,11 @@ HETINV_API void hetinv_context_destroy(hetinv_context_t **ctx) {
 }
 
 HETINV_API int32_t hetinv_context_thread_count(const hetinv_context_t *ctx) {
+  HV_API_ENTER();
   return ctx ? ctx->thread_count : 0;
 }
 
 HETINV_API uint64_t hetinv_context_seed(const hetinv_context_t *ctx) {
+  HV_API_ENTER();
   return ctx ? ctx->seed : 0;
 }

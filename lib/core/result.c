@@ -1,6 +1,8 @@
 #include "hetinv/result.h"
+#include "core/error.h"
 
 HETINV_API const char *hetinv_result_name(hetinv_result_t code) {
+  HV_API_ENTER();
   /* Indexed by the pinned codes of result.h. */
   static const char *const names[HETINV_RESULT_CODE_COUNT_] = {
       "HETINV_SUCCESS",

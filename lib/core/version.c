@@ -1,5 +1,12 @@
 #include "hetinv/version.h"
+#include "core/error.h"
 
-HETINV_API unsigned hetinv_version_number(void) { return HETINV_VERSION_NUMBER; }
+HETINV_API unsigned hetinv_version_number(void) {
+  HV_API_ENTER();
+  return HETINV_VERSION_NUMBER;
+}
 
-HETINV_API const char *hetinv_version_string(void) { return HETINV_VERSION_STRING; }
+HETINV_API const char *hetinv_version_string(void) {
+  HV_API_ENTER();
+  return HETINV_VERSION_STRING;
+}

@@ -6,9 +6,13 @@
 #include <omp.h>
 #endif
 
+#include "core/error.h"
+
 void hv_batches_run(const hv_batch_loop_t *loop) {
+  const char *entry = hv_api_entry; /* workers' failures name the caller's public function */
 #pragma omp parallel num_threads(loop->threads)
   {
+    HV_API_ADOPT(entry);
     int tid = 0, team = 1;
 #ifdef _OPENMP
     tid = omp_get_thread_num();

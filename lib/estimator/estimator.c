@@ -29,6 +29,7 @@ const char *hv_estimator_param_name(hetinv_estimator_param_t param) {
 }
 
 HETINV_API hetinv_result_t hetinv_estimator_create(hetinv_context_t *ctx, hetinv_estimator_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, out);
   *out = NULL;
   HV_CHECK_NULL(ctx, ctx);
@@ -41,6 +42,7 @@ HETINV_API hetinv_result_t hetinv_estimator_create(hetinv_context_t *ctx, hetinv
 }
 
 HETINV_API void hetinv_estimator_destroy(hetinv_estimator_t **estimator) {
+  HV_API_ENTER();
   if (estimator == NULL || *estimator == NULL) return;
   hv_free((*estimator)->ctx, *estimator);
   *estimator = NULL;
@@ -50,6 +52,7 @@ static bool known(hetinv_estimator_param_t p) { return p >= 0 && p < HETINV_ESTI
 
 HETINV_API hetinv_result_t hetinv_estimator_param_bounds(hetinv_estimator_param_t param,
                                                          double *lo, double *hi) {
+  HV_API_ENTER();
   if (!known(param)) {
     return HV_FAIL(NULL, HETINV_ERROR_OUT_OF_RANGE, "param %d is not an estimator parameter", (int)param);
   }
@@ -61,6 +64,7 @@ HETINV_API hetinv_result_t hetinv_estimator_param_bounds(hetinv_estimator_param_
 HETINV_API hetinv_result_t hetinv_estimator_set_param(hetinv_estimator_t *estimator,
                                                       hetinv_estimator_param_t param,
                                                       double value) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, estimator);
   if (!known(param)) {
     return HV_FAIL(estimator->ctx, HETINV_ERROR_OUT_OF_RANGE,
@@ -80,6 +84,7 @@ HETINV_API hetinv_result_t hetinv_estimator_set_param(hetinv_estimator_t *estima
 HETINV_API hetinv_result_t hetinv_estimator_get_param(const hetinv_estimator_t *estimator,
                                                       hetinv_estimator_param_t param,
                                                       double *value) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, estimator);
   HV_CHECK_NULL(estimator->ctx, value);
   if (!known(param)) {
@@ -95,6 +100,7 @@ HETINV_API hetinv_result_t hetinv_estimator_get_param(const hetinv_estimator_t *
 
 HETINV_API hetinv_result_t hetinv_estimator_get_stats(const hetinv_estimator_t *estimator,
                                                       hetinv_render_stats_t *stats) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, estimator);
   HV_CHECK_NULL(estimator->ctx, stats);
   if (stats->size < HV_STATS_V1_SIZE) {

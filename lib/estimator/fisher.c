@@ -25,29 +25,29 @@
 static hetinv_result_t check(const hv_pass_t *pass, const hetinv_medium_t *medium,
                              const hetinv_measurements_t *set, const double *variances,
                              const hetinv_param_map_t *map, int32_t replicates, size_t k,
-                             bool dense, double **weights, const char *func) {
+                             bool dense, double **weights) {
   const hetinv_context_t *ctx = pass->ctx;
-  hetinv_result_t r = hv_check_pi_map(ctx, map, medium, k, "k", func);
+  hetinv_result_t r = hv_check_pi_map(ctx, map, medium, k, "k");
   if (r != HETINV_SUCCESS) return r;
   if (dense && k > HETINV_FISHER_MAX_ENTRIES) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the map has %zu entries; the dense Fisher matrix takes at most %d", k,
                    HETINV_FISHER_MAX_ENTRIES);
   }
   if (replicates < 2 || replicates > HETINV_FISHER_MAX_REPLICATES) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "%s is %d; expected an integer from 2 to %d", dense ? "replicates" : "probes",
                    (int)replicates, HETINV_FISHER_MAX_REPLICATES);
   }
   size_t n = set->value_count;
   double *w = hv_calloc(ctx, n, sizeof(double));
-  if (w == NULL) return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate %zu weights", n);
+  if (w == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu weights", n);
   for (size_t i = 0; i < n; ++i) {
     if (!set->mask[i]) continue;
     double var = variances ? variances[i] : set->std_errors[i] * set->std_errors[i];
     if (!(isfinite(var) && var > 0.0)) {
       hv_free(ctx, w);
-      return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+      return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "the variance of value %zu is %g (%s); a value in the mask needs a finite "
                      "positive variance", i, var,
                      variances ? "variances[]" : "the set's standard error squared");
@@ -61,12 +61,12 @@ static hetinv_result_t check(const hv_pass_t *pass, const hetinv_medium_t *mediu
 /* The R replicates F_r, each K·K, into reps. */
 static hetinv_result_t replicates_of(const hv_pass_t *pass, const hetinv_param_map_t *map,
                                      const double *w, size_t count, int32_t R, size_t K,
-                                     double *reps, const char *func) {
+                                     double *reps) {
   const hetinv_context_t *ctx = pass->ctx;
   size_t V = (size_t)pass->grid.n[0] * (size_t)pass->grid.n[1] * (size_t)pass->grid.n[2];
   size_t nj = 0, nt = 0;
   if (!hv_mul_size(count, K, &nj) || !hv_mul_size(3 * V, K, &nt)) {
-    return hv_fail(ctx, HETINV_ERROR_SIZE_OVERFLOW, func, "%zu values or %zu voxels times %zu entries overflow",
+    return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%zu values or %zu voxels times %zu entries overflow",
                    count, V, K);
   }
   double *eye = hv_calloc(ctx, K * K, sizeof(double));
@@ -74,7 +74,7 @@ static hetinv_result_t replicates_of(const hv_pass_t *pass, const hetinv_param_m
   double *j1 = hv_calloc(ctx, nj, sizeof(double)), *j2 = hv_calloc(ctx, nj, sizeof(double));
   hetinv_result_t r = HETINV_SUCCESS;
   if (!(eye && tangent && j1 && j2)) {
-    r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+    r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                 "cannot allocate the Jacobian of %zu values by %zu entries", count, K);
   }
   if (r == HETINV_SUCCESS) {
@@ -84,10 +84,10 @@ static hetinv_result_t replicates_of(const hv_pass_t *pass, const hetinv_param_m
   for (int32_t rep = 0; r == HETINV_SUCCESS && rep < R; ++rep) {
     hv_pass_t p = *pass;
     p.stream = (uint32_t)((pass->stream + 2u * (uint32_t)rep) % HV_RNG_STREAM_LIMIT);
-    r = hv_tangent_run(&p, tangent, (int32_t)K, count, j1, NULL, func);
+    r = hv_tangent_run(&p, tangent, (int32_t)K, count, j1, NULL);
     if (r != HETINV_SUCCESS) break;
     p.stream = (p.stream + 1u) % HV_RNG_STREAM_LIMIT;
-    r = hv_tangent_run(&p, tangent, (int32_t)K, count, j2, NULL, func);
+    r = hv_tangent_run(&p, tangent, (int32_t)K, count, j2, NULL);
     if (r != HETINV_SUCCESS) break;
     double *F = reps + (size_t)rep * K * K;
     memset(F, 0, K * K * sizeof(double));
@@ -116,22 +116,22 @@ static hetinv_result_t replicates_of(const hv_pass_t *pass, const hetinv_param_m
 static hetinv_result_t fisher_run(hetinv_estimator_t *est, const hetinv_medium_t *medium,
                                   const hetinv_measurements_t *set, const double *variances,
                                   size_t count, const hetinv_param_map_t *map, int32_t R, size_t k,
-                                  double **reps, const char *func) {
+                                  double **reps) {
   hv_pass_t pass;
   *reps = NULL;
-  hetinv_result_t r = hv_pass_begin(est, medium, set, count, func, &pass);
+  hetinv_result_t r = hv_pass_begin(est, medium, set, count, &pass);
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = pass.ctx;
   double *w = NULL;
-  r = check(&pass, medium, set, variances, map, R, k, true, &w, func);
+  r = check(&pass, medium, set, variances, map, R, k, true, &w);
   if (r == HETINV_SUCCESS) {
     *reps = hv_calloc(ctx, (size_t)R * k * k, sizeof(double));
     if (*reps == NULL) {
-      r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate %d matrices of %zu x %zu",
+      r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %d matrices of %zu x %zu",
                   (int)R, k, k);
     }
   }
-  if (r == HETINV_SUCCESS) r = replicates_of(&pass, map, w, count, R, k, *reps, func);
+  if (r == HETINV_SUCCESS) r = replicates_of(&pass, map, w, count, R, k, *reps);
   if (r != HETINV_SUCCESS) {
     hv_free(ctx, *reps);
     *reps = NULL;
@@ -145,12 +145,13 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher(
     hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
     const double *variances, size_t count, const hetinv_param_map_t *map, int32_t replicates,
     double *fisher, double *fisher_std_errors, size_t k) {
+  HV_API_ENTER();
   if (estimator && fisher == NULL) {
     return HV_FAIL(estimator->ctx, HETINV_ERROR_NULL_ARGUMENT, "'fisher' is NULL");
   }
   double *reps = NULL;
   hetinv_result_t r = fisher_run(estimator, medium, set, variances, count, map, replicates, k,
-                                 &reps, __func__);
+                                 &reps);
   if (r != HETINV_SUCCESS) return r;
   size_t kk = k * k;
   for (size_t i = 0; i < kk; ++i) {
@@ -223,10 +224,11 @@ HETINV_API hetinv_result_t hetinv_estimator_crb(
     hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
     const double *variances, size_t count, const hetinv_param_map_t *map, int32_t replicates,
     double *sd, double *sd_std_errors, double *sd_lower, size_t k, int32_t *positive_definite) {
+  HV_API_ENTER();
   if (estimator && sd == NULL) return HV_FAIL(estimator->ctx, HETINV_ERROR_NULL_ARGUMENT, "'sd' is NULL");
   double *reps = NULL;
   hetinv_result_t r = fisher_run(estimator, medium, set, variances, count, map, replicates, k,
-                                 &reps, __func__);
+                                 &reps);
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = estimator->ctx;
   int32_t R = replicates;
@@ -302,13 +304,14 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
     hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
     const double *variances, size_t count, const hetinv_param_map_t *map, int32_t probes,
     double *diagonal, double *diagonal_std_errors, size_t k) {
+  HV_API_ENTER();
   hv_pass_t pass;
-  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, __func__, &pass);
+  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, &pass);
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = pass.ctx;
   double *w = NULL;
   if (diagonal == NULL) r = HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'diagonal' is NULL");
-  if (r == HETINV_SUCCESS) r = check(&pass, medium, set, variances, map, probes, k, false, &w, __func__);
+  if (r == HETINV_SUCCESS) r = check(&pass, medium, set, variances, map, probes, k, false, &w);
   double *z = NULL, *tangent = NULL, *jz = NULL, *g = NULL, *sum = NULL, *sq = NULL;
   if (r == HETINV_SUCCESS) {
     z = hv_calloc(ctx, k, sizeof(double));
@@ -328,11 +331,11 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
     hv_param_map_pushforward(map, z, 1, tangent);
     hv_pass_t p = pass;
     p.stream = (uint32_t)((pass.stream + 2u * (uint32_t)probe) % HV_RNG_STREAM_LIMIT);
-    r = hv_tangent_run(&p, tangent, 1, count, jz, NULL, __func__);
+    r = hv_tangent_run(&p, tangent, 1, count, jz, NULL);
     if (r != HETINV_SUCCESS) break;
     for (size_t n = 0; n < count; ++n) jz[n] *= w[n];
     p.stream = (p.stream + 1u) % HV_RNG_STREAM_LIMIT;
-    r = hv_gradient_run(&p, map, jz, g, NULL, __func__);
+    r = hv_gradient_run(&p, map, jz, g, NULL);
     for (size_t i = 0; r == HETINV_SUCCESS && i < k; ++i) {
       double d = z[i] * g[i];
       sum[i] += d;

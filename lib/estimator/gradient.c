@@ -201,14 +201,14 @@ static void release(const hetinv_context_t *ctx, gradient_t *g, int threads) {
 
 /* Several ranks: every rank's records, in emitter order, added on every
  * rank. Collective: a rank that failed takes part with its code. */
-static hetinv_result_t share(gradient_t *g, hetinv_result_t status, const char *func) {
+static hetinv_result_t share(gradient_t *g, hetinv_result_t status) {
   const hetinv_context_t *ctx = g->pass->ctx;
   double *all = NULL;
   size_t all_count = 0;
-  hetinv_result_t r = hv_comm_allgather(ctx, g->records.data, g->records.count, status, func, &all,
+  hetinv_result_t r = hv_comm_allgather(ctx, g->records.data, g->records.count, status, &all,
                                         &all_count);
   if (r == HETINV_SUCCESS && !records_well_formed(g, all, all_count, g->pass->plans.count)) {
-    r = hv_fail(ctx, HETINV_ERROR_INTERNAL, func,
+    r = HV_FAIL(ctx, HETINV_ERROR_INTERNAL,
                 "the ranks' partial gradients (%zu doubles) are not %d emitters' records", all_count,
                 (int)g->pass->plans.count);
   }
@@ -218,8 +218,7 @@ static hetinv_result_t share(gradient_t *g, hetinv_result_t status, const char *
 }
 
 hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t *map,
-                                const double *cotangent, double *grad, double *grad_se,
-                                const char *func) {
+                                const double *cotangent, double *grad, double *grad_se) {
   const hetinv_context_t *ctx = pass->ctx;
   gradient_t g = {.pass = pass, .map = map, .k = hetinv_param_map_size(map)};
   g.records.ctx = ctx;
@@ -249,8 +248,8 @@ hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t 
     ok = !g.out_of_memory;
   }
   hetinv_result_t r = HETINV_SUCCESS;
-  if (!ok) r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the gradient buffers");
-  if (pass->ranks > 1) r = share(&g, r, func);
+  if (!ok) r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the gradient buffers");
+  if (pass->ranks > 1) r = share(&g, r);
   if (r == HETINV_SUCCESS) {
     hetinv_param_map_pullback(map, g.total, grad, g.k);
     double n = (double)pass->photons;
@@ -266,16 +265,16 @@ hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t 
 /* Checks the map against the medium and the output. */
 static hetinv_result_t check_map(const hetinv_context_t *ctx, const hetinv_param_map_t *map,
                                  const hetinv_medium_t *medium, const double *grad,
-                                 size_t grad_count, const char *func) {
-  if (map == NULL) return hv_fail(ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'map' is NULL");
-  if (grad == NULL) return hv_fail(ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'grad' is NULL");
+                                 size_t grad_count) {
+  if (map == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'map' is NULL");
+  if (grad == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'grad' is NULL");
   if (!hv_param_map_fits(map, medium)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the parameter map was made for another grid than the medium's %d x %d x %d",
                    (int)medium->dims[0], (int)medium->dims[1], (int)medium->dims[2]);
   }
   if (grad_count != hetinv_param_map_size(map)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "grad_count is %zu; the map has %zu entries", grad_count,
                    hetinv_param_map_size(map));
   }
@@ -286,10 +285,11 @@ HETINV_API hetinv_result_t hetinv_estimator_gradient(
     hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
     const double *cotangent, size_t count, const hetinv_param_map_t *map, double *grad,
     double *grad_std_errors, size_t grad_count) {
+  HV_API_ENTER();
   hv_pass_t pass;
-  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, __func__, &pass);
+  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, &pass);
   if (r != HETINV_SUCCESS) return r;
-  r = check_map(pass.ctx, map, medium, grad, grad_count, __func__);
+  r = check_map(pass.ctx, map, medium, grad, grad_count);
   if (r == HETINV_SUCCESS && cotangent == NULL) r = HV_FAIL(pass.ctx, HETINV_ERROR_NULL_ARGUMENT, "'cotangent' is NULL");
   for (size_t i = 0; r == HETINV_SUCCESS && i < count; ++i) {
     if (!isfinite(cotangent[i])) {
@@ -297,7 +297,7 @@ HETINV_API hetinv_result_t hetinv_estimator_gradient(
                   i, cotangent[i]);
     }
   }
-  if (r == HETINV_SUCCESS) r = hv_gradient_run(&pass, map, cotangent, grad, grad_std_errors, __func__);
+  if (r == HETINV_SUCCESS) r = hv_gradient_run(&pass, map, cotangent, grad, grad_std_errors);
   hv_pass_end(&pass);
   return r;
 }
@@ -305,11 +305,12 @@ HETINV_API hetinv_result_t hetinv_estimator_gradient(
 HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
     hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
     const hetinv_param_map_t *map, double *loss, double *rendered, double *grad, size_t grad_count) {
+  HV_API_ENTER();
   hv_pass_t pass;
-  hetinv_result_t r = hv_pass_begin(estimator, medium, set, set ? set->value_count : 0, __func__, &pass);
+  hetinv_result_t r = hv_pass_begin(estimator, medium, set, set ? set->value_count : 0, &pass);
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = pass.ctx;
-  r = check_map(ctx, map, medium, grad, grad_count, __func__);
+  r = check_map(ctx, map, medium, grad, grad_count);
   size_t n = set->value_count;
   double *values = r == HETINV_SUCCESS ? hv_calloc(ctx, n, sizeof(double)) : NULL;
   double *cot = r == HETINV_SUCCESS ? hv_calloc(ctx, n, sizeof(double)) : NULL;
@@ -318,7 +319,7 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
   }
   if (r == HETINV_SUCCESS) {
     /* I from stream s; the gradient from the independent stream s + 1. */
-    r = hv_forward_run(estimator, &pass, values, NULL, NULL, n, __func__);
+    r = hv_forward_run(estimator, &pass, values, NULL, NULL, n);
     if (r == HETINV_SUCCESS) {
       double sum = 0.0;
       for (size_t i = 0; i < n; ++i) {
@@ -329,7 +330,7 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
       if (loss) *loss = sum;
       if (rendered) memcpy(rendered, values, n * sizeof(double));
       pass.stream = (pass.stream + 1) % HV_RNG_STREAM_LIMIT;
-      r = hv_gradient_run(&pass, map, cot, grad, NULL, __func__);
+      r = hv_gradient_run(&pass, map, cot, grad, NULL);
     }
   }
   hv_free(ctx, values);

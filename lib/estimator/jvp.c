@@ -72,28 +72,26 @@ static void release(const hetinv_context_t *ctx, tangent_pass_t *f, int threads)
 }
 
 hetinv_result_t hv_check_pi_map(const hetinv_context_t *ctx, const hetinv_param_map_t *map,
-                                const hetinv_medium_t *medium, size_t count, const char *what,
-                                const char *func) {
-  if (map == NULL) return hv_fail(ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'map' is NULL");
+                                const hetinv_medium_t *medium, size_t count, const char *what) {
+  if (map == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'map' is NULL");
   if (!hv_param_map_fits(map, medium)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the parameter map was made for another grid than the medium's %d x %d x %d",
                    (int)medium->dims[0], (int)medium->dims[1], (int)medium->dims[2]);
   }
   if (count != hetinv_param_map_size(map)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func, "%s is %zu; the map has %zu entries",
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "%s is %zu; the map has %zu entries",
                    what, count, hetinv_param_map_size(map));
   }
   return HETINV_SUCCESS;
 }
 
 hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int32_t tangents,
-                               size_t count, double *values, double *std_errors,
-                               const char *func) {
+                               size_t count, double *values, double *std_errors) {
   const hetinv_context_t *ctx = pass->ctx;
   if (pass->ranks > 1) {
     /* Every rank takes this branch: the same error everywhere, no exchange. */
-    return hv_fail(ctx, HETINV_ERROR_UNSUPPORTED, func,
+    return HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED,
                    "Jacobian-vector products are not distributed over MPI ranks (%d ranks); "
                    "use a context with one rank", (int)pass->ranks);
   }
@@ -101,7 +99,7 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
   tangent_pass_t f = {.pass = pass, .T = (size_t)tangents};
   size_t n = 0;
   if (!hv_mul_size(count, f.T, &n)) {
-    return hv_fail(ctx, HETINV_ERROR_SIZE_OVERFLOW, func, "%zu values times %d tangents overflow",
+    return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%zu values times %d tangents overflow",
                    count, (int)tangents);
   }
   int threads = pass->threads;
@@ -130,7 +128,7 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
   }
   hetinv_result_t r = HETINV_SUCCESS;
   if (!ok) {
-    r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+    r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                 "cannot allocate the tangent buffers for %zu values and %d tangents", count,
                 (int)tangents);
   } else {
@@ -150,11 +148,12 @@ HETINV_API hetinv_result_t hetinv_estimator_jvp(hetinv_estimator_t *estimator,
                                                 const hetinv_param_map_t *map, const double *v,
                                                 size_t v_count, double *jv, double *jv_std_errors,
                                                 size_t count) {
+  HV_API_ENTER();
   hv_pass_t pass;
-  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, __func__, &pass);
+  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, &pass);
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = pass.ctx;
-  r = hv_check_pi_map(ctx, map, medium, v_count, "v_count", __func__);
+  r = hv_check_pi_map(ctx, map, medium, v_count, "v_count");
   if (r == HETINV_SUCCESS && v == NULL) r = HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'v' is NULL");
   if (r == HETINV_SUCCESS && jv == NULL) r = HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'jv' is NULL");
   for (size_t i = 0; r == HETINV_SUCCESS && i < v_count; ++i) {
@@ -169,7 +168,7 @@ HETINV_API hetinv_result_t hetinv_estimator_jvp(hetinv_estimator_t *estimator,
   }
   if (r == HETINV_SUCCESS) {
     hv_param_map_pushforward(map, v, 1, tangent);
-    r = hv_tangent_run(&pass, tangent, 1, count, jv, jv_std_errors, __func__);
+    r = hv_tangent_run(&pass, tangent, 1, count, jv, jv_std_errors);
   }
   hv_free(ctx, tangent);
   hv_pass_end(&pass);

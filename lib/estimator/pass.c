@@ -30,26 +30,25 @@ double hv_now_seconds(void) {
 }
 
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
-                              const hetinv_measurements_t *set, size_t count, const char *func,
-                              hv_pass_t *pass) {
-  if (est == NULL) return hv_fail(NULL, HETINV_ERROR_NULL_ARGUMENT, func, "'estimator' is NULL");
+                              const hetinv_measurements_t *set, size_t count, hv_pass_t *pass) {
+  if (est == NULL) return HV_FAIL(NULL, HETINV_ERROR_NULL_ARGUMENT, "'estimator' is NULL");
   const hetinv_context_t *ctx = est->ctx;
-  if (medium == NULL) return hv_fail(ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'medium' is NULL");
-  if (set == NULL) return hv_fail(ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'set' is NULL");
+  if (medium == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'medium' is NULL");
+  if (set == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'set' is NULL");
   if (!medium->committed) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_STATE, func, "the medium is not committed");
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "the medium is not committed");
   }
   if (set->row_count == 0) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func, "the measurement set has no rows");
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "the measurement set has no rows");
   }
   if (count != set->value_count) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "count is %zu; the measurement set has %zu values", count, set->value_count);
   }
   hv_geometry_t geo;
   hv_geometry_of(medium, &geo);
   if (!hv_geometry_equal(&geo, &set->geo)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the medium's box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g differs from "
                    "the box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g the set was made for",
                    geo.lo[0], geo.hi[0], geo.lo[1], geo.hi[1], geo.lo[2], geo.hi[2], geo.eta,
@@ -57,9 +56,9 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
                    set->geo.lo[2], set->geo.hi[2], set->geo.eta, set->geo.eta_out);
   }
   *pass = (hv_pass_t){.ctx = ctx, .start_seconds = hv_now_seconds()};
-  hetinv_result_t r = hv_grid_build(medium, func, &pass->grid);
+  hetinv_result_t r = hv_grid_build(medium, &pass->grid);
   if (r != HETINV_SUCCESS) return r;
-  r = hv_plans_build(set, func, &pass->plans);
+  r = hv_plans_build(set, &pass->plans);
   if (r != HETINV_SUCCESS) {
     hv_grid_release(&pass->grid);
     return r;

@@ -26,8 +26,7 @@ typedef struct hv_pass {
 /* Validates (estimator, medium, set, count) and builds the pass; on failure
  * nothing needs releasing. */
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
-                              const hetinv_measurements_t *set, size_t count, const char *func,
-                              hv_pass_t *pass);
+                              const hetinv_measurements_t *set, size_t count, hv_pass_t *pass);
 void hv_pass_end(hv_pass_t *pass);
 
 /* Traces batch b's photons [hv_batch_begin(b), hv_batch_begin(b+1)) of
@@ -47,27 +46,23 @@ double hv_now_seconds(void);
 
 /* The forward pass on a pass already begun (render.c); fills est's stats. */
 hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, double *values,
-                               double *std_errors, double *ballistic, size_t count,
-                               const char *func);
+                               double *std_errors, double *ballistic, size_t count);
 
 /* The tangent pass (jvp.c) on a pass already begun: for T = `tangents`
  * voxel-space tangents (layout of hv_jvp_state_t), values[n·T + t] =
  * (J·v_t)_n and, if std_errors is not NULL, its standard error from the
  * batch means. count: the set's value count. One rank only. */
 hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int32_t tangents,
-                               size_t count, double *values, double *std_errors,
-                               const char *func);
+                               size_t count, double *values, double *std_errors);
 
 /* The gradient pass (gradient.c) on a pass already begun: grad = Jᵀ·cotangent
  * in π space, with standard errors if grad_se is not NULL. */
 hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t *map,
-                                const double *cotangent, double *grad, double *grad_se,
-                                const char *func);
+                                const double *cotangent, double *grad, double *grad_se);
 
 /* Checks a parameter map against the medium and a π-sized argument whose
  * length `count` is named `what` in the message. */
 hetinv_result_t hv_check_pi_map(const hetinv_context_t *ctx, const hetinv_param_map_t *map,
-                                const hetinv_medium_t *medium, size_t count, const char *what,
-                                const char *func);
+                                const hetinv_medium_t *medium, size_t count, const char *what);
 
 #endif

@@ -98,8 +98,7 @@ static void fill_stats(hetinv_estimator_t *est, const forward_t *f) {
 /* Hands every rank's emitters' sums to every rank: per emitter, in emitter
  * order, each of its values' (total, Σ batch means, Σ squares[, ballistic])
  * and its statistics' (sum, Σ batch means, Σ squares). Collective. */
-static hetinv_result_t share(forward_t *f, bool with_ballistic, hetinv_result_t status,
-                             const char *func) {
+static hetinv_result_t share(forward_t *f, bool with_ballistic, hetinv_result_t status) {
   const hv_pass_t *pass = f->pass;
   const hetinv_context_t *ctx = pass->ctx;
   size_t per_value = with_ballistic ? 4 : 3;
@@ -123,13 +122,13 @@ static hetinv_result_t share(forward_t *f, bool with_ballistic, hetinv_result_t 
     }
   }
   if (status == HETINV_SUCCESS && rec.out_of_memory) {
-    status = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+    status = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                      "cannot allocate the partial sums of emitters %d to %d", (int)pass->emitter_lo,
                      (int)pass->emitter_hi - 1);
   }
   double *all = NULL;
   size_t all_count = 0, at = 0;
-  hetinv_result_t r = hv_comm_allgather(ctx, rec.data, rec.count, status, func, &all, &all_count);
+  hetinv_result_t r = hv_comm_allgather(ctx, rec.data, rec.count, status, &all, &all_count);
   hv_record_release(&rec);
   /* Rank blocks are contiguous and in rank order: the records of every
    * emitter, in emitter order. */
@@ -155,7 +154,7 @@ static hetinv_result_t share(forward_t *f, bool with_ballistic, hetinv_result_t 
     }
   }
   if (r == HETINV_SUCCESS && at != all_count) {
-    r = hv_fail(ctx, HETINV_ERROR_INTERNAL, func,
+    r = HV_FAIL(ctx, HETINV_ERROR_INTERNAL,
                 "the ranks' partial sums hold %zu doubles, which do not match the rows of the %d "
                 "emitters", all_count, (int)pass->plans.count);
   }
@@ -179,8 +178,7 @@ static void release(const hetinv_context_t *ctx, forward_t *f, int threads) {
 }
 
 hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, double *values,
-                               double *std_errors, double *ballistic, size_t count,
-                               const char *func) {
+                               double *std_errors, double *ballistic, size_t count) {
   const hetinv_context_t *ctx = pass->ctx;
   forward_t f = {.pass = pass};
   int threads = hv_pass_thread_count(pass, count * sizeof(double) * (ballistic ? 2 : 1));
@@ -205,11 +203,11 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
                             threads, &f, run_item, reduce_item};
     hv_batches_run(&loop);
   } else {
-    r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+    r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                 "cannot allocate the render buffers for %zu values", count);
   }
   /* Collective: a rank that failed above still takes part, with its code. */
-  if (pass->ranks > 1) r = share(&f, ballistic != NULL, r, func);
+  if (pass->ranks > 1) r = share(&f, ballistic != NULL, r);
   if (r == HETINV_SUCCESS) {
     double n = (double)pass->photons;
     for (size_t k = 0; k < count; ++k) {
@@ -228,13 +226,14 @@ HETINV_API hetinv_result_t hetinv_estimator_render(hetinv_estimator_t *estimator
                                                    const hetinv_measurements_t *set,
                                                    double *values, double *std_errors,
                                                    double *ballistic, size_t count) {
+  HV_API_ENTER();
   hv_pass_t pass;
-  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, __func__, &pass);
+  hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, &pass);
   if (r != HETINV_SUCCESS) return r;
   if (values == NULL) {
     r = HV_FAIL(pass.ctx, HETINV_ERROR_NULL_ARGUMENT, "'values' is NULL");
   } else {
-    r = hv_forward_run(estimator, &pass, values, std_errors, ballistic, count, __func__);
+    r = hv_forward_run(estimator, &pass, values, std_errors, ballistic, count);
   }
   hv_pass_end(&pass);
   return r;

@@ -15,15 +15,15 @@ static void release(hv_atomic_file_t *f) {
   f->fp = NULL;
 }
 
-hetinv_result_t hv_atomic_open(const hetinv_context_t *ctx, const char *func, const char *path,
+hetinv_result_t hv_atomic_open(const hetinv_context_t *ctx, const char *path,
                                int want_stream, hv_atomic_file_t *f) {
   static const char suffix[] = ".tmp-XXXXXX";
-  *f = (hv_atomic_file_t){.ctx = ctx, .func = func, .path = path};
+  *f = (hv_atomic_file_t){.ctx = ctx, .path = path};
   size_t n = strlen(path);
-  if (n == 0) return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func, "the path is empty");
+  if (n == 0) return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "the path is empty");
   f->tmp_path = hv_alloc(ctx, n + sizeof suffix);
   if (f->tmp_path == NULL) {
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate a temporary path");
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate a temporary path");
   }
   memcpy(f->tmp_path, path, n);
   memcpy(f->tmp_path + n, suffix, sizeof suffix);
@@ -31,7 +31,7 @@ hetinv_result_t hv_atomic_open(const hetinv_context_t *ctx, const char *func, co
   if (fd < 0) {
     int err = errno;
     release(f);
-    return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot create a temporary file beside '%s': %s",
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot create a temporary file beside '%s': %s",
                    path, strerror(err));
   }
   fchmod(fd, 0644); /* mkstemp makes 0600; results are meant to be shared */
@@ -44,7 +44,7 @@ hetinv_result_t hv_atomic_open(const hetinv_context_t *ctx, const char *func, co
     int err = errno;
     close(fd);
     hv_atomic_abort(f);
-    return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot open a temporary file beside '%s': %s",
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot open a temporary file beside '%s': %s",
                    path, strerror(err));
   }
   return HETINV_SUCCESS;
@@ -58,14 +58,14 @@ hetinv_result_t hv_atomic_commit(hv_atomic_file_t *f) {
     f->fp = NULL;
     if (bad) {
       hv_atomic_abort(f);
-      return hv_fail(f->ctx, HETINV_ERROR_IO, f->func, "cannot write '%s': %s", f->path,
+      return HV_FAIL(f->ctx, HETINV_ERROR_IO, "cannot write '%s': %s", f->path,
                      strerror(err ? err : EIO));
     }
   }
   if (rename(f->tmp_path, f->path) != 0) {
     int err = errno;
     hv_atomic_abort(f);
-    return hv_fail(f->ctx, HETINV_ERROR_IO, f->func, "cannot rename the temporary file to '%s': %s",
+    return HV_FAIL(f->ctx, HETINV_ERROR_IO, "cannot rename the temporary file to '%s': %s",
                    f->path, strerror(err));
   }
   release(f);

@@ -10,7 +10,6 @@
 
 typedef struct hv_atomic_file {
   const hetinv_context_t *ctx;
-  const char *func;  /* public function reported in messages */
   const char *path;  /* destination (borrowed) */
   char *tmp_path;    /* "<path>.tmp-XXXXXX", created empty */
   FILE *fp;          /* open for writing, or NULL when a library writes tmp_path itself */
@@ -18,8 +17,8 @@ typedef struct hv_atomic_file {
 
 /* Creates the temporary file. With want_stream, f->fp is open on it ("wb");
  * otherwise the file exists, closed, for another library to overwrite.
- * On failure nothing is left on disk and a message naming @p func is recorded. */
-hetinv_result_t hv_atomic_open(const hetinv_context_t *ctx, const char *func, const char *path,
+ * On failure nothing is left on disk and a message is recorded. */
+hetinv_result_t hv_atomic_open(const hetinv_context_t *ctx, const char *path,
                                int want_stream, hv_atomic_file_t *f);
 
 /* Flushes and closes f->fp (if any), then renames the temporary file to the

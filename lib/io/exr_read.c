@@ -10,8 +10,6 @@
 #include "core/error.h"
 #include "io/image_internal.h"
 
-static const char *const FUNC = "hetinv_image_read_exr";
-
 /* A file may claim at most this many bytes of pixels per byte it holds: well
  * above what any OpenEXR compression achieves, so that a header with an
  * absurd data window fails before the image is allocated. */
@@ -60,23 +58,22 @@ static hetinv_result_t fail_exr(const exr_reader_t *rd, exr_result_t rv) {
   const char *where = rd->where;
   switch (rv) {
     case EXR_ERR_OUT_OF_MEMORY:
-      return hv_fail(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, FUNC, "'%s': %s%s", rd->path, where, what);
+      return HV_FAIL(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, "'%s': %s%s", rd->path, where, what);
     case EXR_ERR_FILE_ACCESS:
-      return hv_fail(rd->ctx, HETINV_ERROR_IO, FUNC, "cannot read '%s': %s%s", rd->path, where,
-                     what);
+      return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot read '%s': %s%s", rd->path, where, what);
     case EXR_ERR_FEATURE_NOT_IMPLEMENTED:
-      return hv_fail(rd->ctx, HETINV_ERROR_UNSUPPORTED, FUNC,
+      return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
                      "'%s' uses an unsupported feature: %s%s", rd->path, where, what);
     case EXR_ERR_READ_IO:
       if (rd->os_error != 0) {
-        return hv_fail(rd->ctx, HETINV_ERROR_IO, FUNC, "cannot read '%s': %s%s", rd->path, where,
+        return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot read '%s': %s%s", rd->path, where,
                        strerror(rd->os_error));
       }
       /* a short read of an intact file: it is truncated */
-      return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC, "'%s' is truncated: %s%s (%s)",
+      return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is truncated: %s%s (%s)",
                      rd->path, where, what, name);
     default: /* everything else comes from the file's content */
-      return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC,
+      return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE,
                      "'%s' is not a valid OpenEXR file: %s%s (%s)", rd->path, where, what, name);
   }
 }
@@ -113,20 +110,18 @@ static int64_t size_source(exr_const_context_t exr, void *user) {
 static hetinv_result_t open_file(exr_reader_t *rd) {
   rd->fd = open(rd->path, O_RDONLY | O_CLOEXEC);
   if (rd->fd < 0) {
-    return hv_fail(rd->ctx, HETINV_ERROR_IO, FUNC, "cannot open '%s': %s", rd->path,
-                   strerror(errno));
+    return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot open '%s': %s", rd->path, strerror(errno));
   }
   struct stat st;
   if (fstat(rd->fd, &st) != 0) {
-    return hv_fail(rd->ctx, HETINV_ERROR_IO, FUNC, "cannot stat '%s': %s", rd->path,
-                   strerror(errno));
+    return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot stat '%s': %s", rd->path, strerror(errno));
   }
   if (!S_ISREG(st.st_mode)) {
-    return hv_fail(rd->ctx, HETINV_ERROR_IO, FUNC, "'%s' is not a regular file", rd->path);
+    return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "'%s' is not a regular file", rd->path);
   }
   rd->file_size = (int64_t)st.st_size;
   if (rd->file_size == 0) {
-    return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC, "'%s' is empty", rd->path);
+    return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' is empty", rd->path);
   }
   exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
   init.error_handler_fn = hv_exr_record_error;
@@ -146,12 +141,12 @@ static hetinv_result_t check_header(exr_reader_t *rd) {
   if (rv == EXR_ERR_SUCCESS) rv = exr_get_data_window(rd->exr, 0, &rd->window);
   if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
   if (rd->storage == EXR_STORAGE_DEEP_SCANLINE || rd->storage == EXR_STORAGE_DEEP_TILED) {
-    return hv_fail(rd->ctx, HETINV_ERROR_UNSUPPORTED, FUNC,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
                    "'%s' holds deep data; only flat images are supported", rd->path);
   }
   const exr_attr_chlist_t *list = rd->channels;
   if (list->num_channels <= 0 || list->num_channels > INT16_MAX) {
-    return hv_fail(rd->ctx, HETINV_ERROR_UNSUPPORTED, FUNC,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
                    "'%s' has %d channels; 1 to %d are supported", rd->path, list->num_channels,
                    INT16_MAX);
   }
@@ -159,19 +154,19 @@ static hetinv_result_t check_header(exr_reader_t *rd) {
   for (int k = 0; k < list->num_channels; ++k) {
     const exr_attr_chlist_entry_t *e = &list->entries[k];
     if (e->x_sampling != 1 || e->y_sampling != 1) {
-      return hv_fail(rd->ctx, HETINV_ERROR_UNSUPPORTED, FUNC,
+      return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
                      "channel \"%s\" of '%s' is subsampled (%d x %d); only full-resolution "
                      "channels are supported",
                      e->name.str, rd->path, (int)e->x_sampling, (int)e->y_sampling);
     }
     if (e->pixel_type != EXR_PIXEL_HALF && e->pixel_type != EXR_PIXEL_FLOAT &&
         e->pixel_type != EXR_PIXEL_UINT) {
-      return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC,
+      return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE,
                      "channel \"%s\" of '%s' has pixel type %d", e->name.str, rd->path,
                      (int)e->pixel_type);
     }
     if (!hv_image_name_is_valid(e->name.str)) {
-      return hv_fail(rd->ctx, HETINV_ERROR_UNSUPPORTED, FUNC,
+      return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
                      "channel %d of '%s' has a name that is not printable ASCII", k, rd->path);
     }
     bytes_per_pixel += e->pixel_type == EXR_PIXEL_HALF ? 2 : 4;
@@ -179,14 +174,14 @@ static hetinv_result_t check_header(exr_reader_t *rd) {
   const exr_attr_box2i_t *w = &rd->window;
   int64_t width = (int64_t)w->max.x - w->min.x + 1, height = (int64_t)w->max.y - w->min.y + 1;
   if (width <= 0 || height <= 0) {
-    return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE,
                    "the data window of '%s' is (%d, %d) - (%d, %d): empty", rd->path,
                    (int)w->min.x, (int)w->min.y, (int)w->max.x, (int)w->max.y);
   }
   /* First: a header claiming more pixels than its file can hold is corrupt. */
   if ((double)width * (double)height * (double)bytes_per_pixel >
       (double)rd->file_size * MAX_COMPRESSION_RATIO) {
-    return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE,
                    "'%s' claims %lld x %lld pixels of %d channels but holds only %lld bytes",
                    rd->path, (long long)width, (long long)height, list->num_channels,
                    (long long)rd->file_size);
@@ -195,13 +190,13 @@ static hetinv_result_t check_header(exr_reader_t *rd) {
   if (!hv_mul_size((size_t)width, (size_t)height, &pixels) ||
       !hv_mul_size(pixels, (size_t)list->num_channels, &floats) ||
       !hv_mul_size(floats, sizeof(float), &bytes)) {
-    return hv_fail(rd->ctx, HETINV_ERROR_SIZE_OVERFLOW, FUNC,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_SIZE_OVERFLOW,
                    "'%s' has %lld x %lld pixels of %d channels: more floats than fit in memory",
                    rd->path, (long long)width, (long long)height, list->num_channels);
   }
   /* The decoder's line stride (width·4 bytes) is an int32. */
   if (width > INT32_MAX / (int64_t)sizeof(float) || height > INT32_MAX) {
-    return hv_fail(rd->ctx, HETINV_ERROR_SIZE_OVERFLOW, FUNC,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_SIZE_OVERFLOW,
                    "the data window of '%s' is %lld x %lld pixels; rows of more than %d floats "
                    "cannot be read",
                    rd->path, (long long)width, (long long)height,
@@ -225,12 +220,12 @@ static hetinv_result_t order_channels(exr_reader_t *rd) {
   }
   hetinv_result_t r = HETINV_SUCCESS;
   if (index == NULL || rd->file_to_image == NULL) {
-    r = hv_fail(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, FUNC, "cannot allocate a table of %d channels",
+    r = HV_FAIL(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate a table of %d channels",
                 (int)n);
   }
   for (int32_t k = 1; r == HETINV_SUCCESS && k < n; ++k) { /* sorted: duplicates are adjacent */
     if (strcmp(index[k - 1].name, index[k].name) == 0) {
-      r = hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC, "'%s' has two channels called \"%s\"",
+      r = HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' has two channels called \"%s\"",
                   rd->path, index[k].name);
     }
   }
@@ -251,7 +246,7 @@ static hetinv_result_t order_channels(exr_reader_t *rd) {
     hv_exr_clear_error(); /* OpenEXR reports a missing attribute as an error */
   }
   for (int32_t k = 0; r == HETINV_SUCCESS && k < n; ++k) {
-    r = hv_image_store_channel_name(rd->image, FUNC, rd->file_to_image[k], names[k]);
+    r = hv_image_store_channel_name(rd->image, rd->file_to_image[k], names[k]);
   }
   hv_free(rd->ctx, index);
   hv_free(rd->ctx, names);
@@ -277,15 +272,15 @@ static hetinv_result_t load_attributes(exr_reader_t *rd) {
           strnlen(s->str, (size_t)s->length + 1) != (size_t)s->length) {
         continue;
       }
-      r = hv_image_store_attribute(rd->image, FUNC, a->name, HETINV_ATTRIBUTE_STRING, s->str, 0.0,
+      r = hv_image_store_attribute(rd->image, a->name, HETINV_ATTRIBUTE_STRING, s->str, 0.0,
                                    0);
     } else if ((a->type == EXR_ATTR_FLOAT && isfinite(a->f)) ||
                (a->type == EXR_ATTR_DOUBLE && isfinite(a->d))) {
       double value = a->type == EXR_ATTR_FLOAT ? (double)a->f : a->d;
-      r = hv_image_store_attribute(rd->image, FUNC, a->name, HETINV_ATTRIBUTE_DOUBLE, NULL, value,
+      r = hv_image_store_attribute(rd->image, a->name, HETINV_ATTRIBUTE_DOUBLE, NULL, value,
                                    0);
     } else if (a->type == EXR_ATTR_INT) {
-      r = hv_image_store_attribute(rd->image, FUNC, a->name, HETINV_ATTRIBUTE_INT, NULL, 0.0, a->i);
+      r = hv_image_store_attribute(rd->image, a->name, HETINV_ATTRIBUTE_INT, NULL, 0.0, a->i);
     }
     if (r != HETINV_SUCCESS) return r;
   }
@@ -362,13 +357,13 @@ static hetinv_result_t decode_chunk(exr_reader_t *rd, exr_decode_pipeline_t *dec
                                     const exr_chunk_info_t *chunk, int64_t x0, int64_t y0) {
   if (chunk->width <= 0 || chunk->height <= 0 || x0 < 0 || y0 < 0 ||
       x0 + chunk->width > rd->width || y0 + chunk->height > rd->height) {
-    return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE,
                    "'%s': chunk %d (%d x %d pixels at %lld, %lld) does not fit the %d x %d image",
                    rd->path, (int)chunk->idx, (int)chunk->width, (int)chunk->height,
                    (long long)x0, (long long)y0, (int)rd->width, (int)rd->height);
   }
   if (chunk->packed_size == 0) { /* OpenEXR would leave the pixels undefined */
-    return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC, "'%s': chunk %d holds no data",
+    return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE, "'%s': chunk %d holds no data",
                    rd->path, (int)chunk->idx);
   }
   snprintf(rd->where, sizeof rd->where, "chunk %d (%d x %d pixels at %lld, %lld): ",
@@ -377,7 +372,7 @@ static hetinv_result_t decode_chunk(exr_reader_t *rd, exr_decode_pipeline_t *dec
                              : exr_decoding_initialize(rd->exr, 0, chunk, dec);
   if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
   if (dec->channel_count != rd->channels->num_channels) {
-    return hv_fail(rd->ctx, HETINV_ERROR_INTERNAL, FUNC, "OpenEXR decodes %d of %d channels",
+    return HV_FAIL(rd->ctx, HETINV_ERROR_INTERNAL, "OpenEXR decodes %d of %d channels",
                    (int)dec->channel_count, rd->channels->num_channels);
   }
   const hetinv_image_t *img = rd->image;
@@ -418,7 +413,7 @@ static hetinv_result_t read_scanlines(exr_reader_t *rd, exr_decode_pipeline_t *d
   exr_result_t rv = exr_get_scanlines_per_chunk(rd->exr, 0, &rows);
   if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
   if (rows <= 0) {
-    return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC, "'%s' has %d rows per chunk",
+    return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE, "'%s' has %d rows per chunk",
                    rd->path, (int)rows);
   }
   hetinv_result_t r = HETINV_SUCCESS;
@@ -440,7 +435,7 @@ static hetinv_result_t read_tiles(exr_reader_t *rd, exr_decode_pipeline_t *dec, 
   if (rv == EXR_ERR_SUCCESS) rv = exr_get_level_sizes(rd->exr, 0, 0, 0, &level_w, &level_h);
   if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
   if (tile_w <= 0 || tile_h <= 0 || level_w != rd->width || level_h != rd->height) {
-    return hv_fail(rd->ctx, HETINV_ERROR_CORRUPT_FILE, FUNC,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_CORRUPT_FILE,
                    "'%s' has %d x %d tiles and a %d x %d first level for a %d x %d data window",
                    rd->path, (int)tile_w, (int)tile_h, (int)level_w, (int)level_h, (int)rd->width,
                    (int)rd->height);
@@ -470,6 +465,7 @@ static hetinv_result_t read_pixels(exr_reader_t *rd) {
 
 HETINV_API hetinv_result_t hetinv_image_read_exr(hetinv_context_t *ctx, const char *path,
                                                  hetinv_image_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, out);
   *out = NULL;
   HV_CHECK_NULL(ctx, ctx);
@@ -482,7 +478,7 @@ HETINV_API hetinv_result_t hetinv_image_read_exr(hetinv_context_t *ctx, const ch
     r = check_header(&rd);
   }
   if (r == HETINV_SUCCESS) {
-    r = hv_image_alloc(ctx, FUNC, rd.width, rd.height, rd.channels->num_channels, &rd.image);
+    r = hv_image_alloc(ctx, rd.width, rd.height, rd.channels->num_channels, &rd.image);
   }
   if (r == HETINV_SUCCESS) r = order_channels(&rd);
   if (r == HETINV_SUCCESS) r = load_attributes(&rd);

@@ -25,7 +25,7 @@ static hetinv_result_t fail_exr(const exr_job_t *job, const char *call, exr_resu
   hetinv_result_t code = HETINV_ERROR_INTERNAL; /* our arguments are valid: anything else is a bug */
   if (rv == EXR_ERR_OUT_OF_MEMORY) code = HETINV_ERROR_OUT_OF_MEMORY;
   if (rv == EXR_ERR_FILE_ACCESS || rv == EXR_ERR_WRITE_IO) code = HETINV_ERROR_IO;
-  return hv_fail(job->image->ctx, code, "hetinv_image_write_exr", "cannot write '%s': %s: %s (%s)",
+  return HV_FAIL(job->image->ctx, code, "cannot write '%s': %s: %s (%s)",
                  job->path, call, hv_exr_error_message(rv), exr_get_error_code_as_string(rv));
 }
 
@@ -76,7 +76,7 @@ static hetinv_result_t map_channels(exr_job_t *job) {
   exr_result_t rv = exr_get_channels(job->exr, job->part, &list);
   if (rv != EXR_ERR_SUCCESS) return fail_exr(job, "exr_get_channels", rv);
   if (list->num_channels != img->channel_count) {
-    return hv_fail(img->ctx, HETINV_ERROR_INTERNAL, "hetinv_image_write_exr",
+    return HV_FAIL(img->ctx, HETINV_ERROR_INTERNAL,
                    "OpenEXR lists %d channels for %d added", list->num_channels,
                    (int)img->channel_count);
   }
@@ -85,7 +85,7 @@ static hetinv_result_t map_channels(exr_job_t *job) {
       hv_name_index_build(img->ctx, (const char *const *)img->channel_names, img->channel_count);
   if (job->file_to_image == NULL || index == NULL) {
     hv_free(img->ctx, index);
-    return hv_fail(img->ctx, HETINV_ERROR_OUT_OF_MEMORY, "hetinv_image_write_exr",
+    return HV_FAIL(img->ctx, HETINV_ERROR_OUT_OF_MEMORY,
                    "cannot allocate a table of %d channels", (int)img->channel_count);
   }
   bool reordered = false;
@@ -190,17 +190,18 @@ static hetinv_result_t sync_file(const hetinv_image_t *img, const char *tmp_path
   bool ok = fd >= 0 && fsync(fd) == 0;
   if (fd >= 0) close(fd);
   if (ok) return HETINV_SUCCESS;
-  return hv_fail(img->ctx, HETINV_ERROR_IO, "hetinv_image_write_exr",
+  return HV_FAIL(img->ctx, HETINV_ERROR_IO,
                  "cannot flush the temporary file of '%s' to disk", path);
 }
 
 HETINV_API hetinv_result_t hetinv_image_write_exr(const hetinv_image_t *image, const char *path) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, image);
   HV_CHECK_NULL(image->ctx, path);
   hetinv_result_t r = check_limits(image, path);
   if (r != HETINV_SUCCESS) return r;
   hv_atomic_file_t file;
-  r = hv_atomic_open(image->ctx, __func__, path, 0, &file);
+  r = hv_atomic_open(image->ctx, path, 0, &file);
   if (r != HETINV_SUCCESS) return r;
 
   exr_job_t job = {.image = image, .path = path};

@@ -18,18 +18,17 @@ bool hv_image_name_is_valid(const char *name) {
 }
 
 /* Records why @p name (a channel or attribute name) is invalid. */
-static hetinv_result_t fail_name(const hetinv_context_t *ctx, const char *func, const char *what,
-                                 const char *name) {
+static hetinv_result_t fail_name(const hetinv_context_t *ctx, const char *what, const char *name) {
   size_t n = strlen(name);
-  if (n == 0) return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func, "the %s is empty", what);
+  if (n == 0) return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "the %s is empty", what);
   if (n > HV_IMAGE_NAME_MAX) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the %s is %zu bytes long; at most %d are allowed", what, n,
                    HV_IMAGE_NAME_MAX);
   }
   size_t i = 0;
   while (name[i] >= 0x20 && name[i] <= 0x7e) ++i;
-  return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+  return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                  "the %s has byte 0x%02X at offset %zu; names must be printable ASCII", what,
                  (unsigned)(unsigned char)name[i], i);
 }
@@ -85,6 +84,7 @@ static void free_attribute(const hetinv_context_t *ctx, hv_image_attribute_t *a)
 }
 
 HETINV_API void hetinv_image_destroy(hetinv_image_t **image) {
+  HV_API_ENTER();
   if (image == NULL || *image == NULL) return;
   hetinv_image_t *img = *image;
   const hetinv_context_t *ctx = img->ctx;
@@ -99,10 +99,10 @@ HETINV_API void hetinv_image_destroy(hetinv_image_t **image) {
   *image = NULL;
 }
 
-hetinv_result_t hv_image_alloc(hetinv_context_t *ctx, const char *func, int32_t width,
+hetinv_result_t hv_image_alloc(hetinv_context_t *ctx, int32_t width,
                                int32_t height, int32_t channel_count, hetinv_image_t **out) {
   hetinv_image_t *img = hv_calloc(ctx, 1, sizeof *img);
-  if (img == NULL) return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate an image");
+  if (img == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate an image");
   img->ctx = ctx;
   img->width = width;
   img->height = height;
@@ -119,7 +119,7 @@ hetinv_result_t hv_image_alloc(hetinv_context_t *ctx, const char *func, int32_t 
   }
   if (!ok) {
     hetinv_image_destroy(&img);
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                    "cannot allocate a %d x %d image of %d channels", (int)width, (int)height,
                    (int)channel_count);
   }
@@ -130,6 +130,7 @@ hetinv_result_t hv_image_alloc(hetinv_context_t *ctx, const char *func, int32_t 
 HETINV_API hetinv_result_t hetinv_image_create(hetinv_context_t *ctx, int32_t width,
                                                int32_t height, int32_t channel_count,
                                                hetinv_image_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, out);
   *out = NULL;
   HV_CHECK_NULL(ctx, ctx);
@@ -157,13 +158,14 @@ HETINV_API hetinv_result_t hetinv_image_create(hetinv_context_t *ctx, int32_t wi
                    (int)width, (int)height, (int)channel_count, floats,
                    (long long)HETINV_MAX_IMAGE_VALUES);
   }
-  return hv_image_alloc(ctx, __func__, width, height, channel_count, out);
+  return hv_image_alloc(ctx, width, height, channel_count, out);
 }
 
 /* ---- size and channels --------------------------------------------------- */
 
 HETINV_API hetinv_result_t hetinv_image_get_size(const hetinv_image_t *image, int32_t *width,
                                                  int32_t *height, int32_t *channel_count) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, image);
   if (width != NULL) *width = image->width;
   if (height != NULL) *height = image->height;
@@ -172,11 +174,13 @@ HETINV_API hetinv_result_t hetinv_image_get_size(const hetinv_image_t *image, in
 }
 
 HETINV_API float *hetinv_image_channel_data(hetinv_image_t *image, int32_t channel) {
+  HV_API_ENTER();
   if (image == NULL || channel < 0 || channel >= image->channel_count) return NULL;
   return image->data + (size_t)channel * image->pixel_count;
 }
 
 HETINV_API const char *hetinv_image_channel_name(const hetinv_image_t *image, int32_t channel) {
+  HV_API_ENTER();
   if (image == NULL || channel < 0 || channel >= image->channel_count) return NULL;
   return image->channel_names[channel];
 }
@@ -188,11 +192,11 @@ static int32_t find_channel(const hetinv_image_t *image, const char *name) {
   return -1;
 }
 
-hetinv_result_t hv_image_store_channel_name(hetinv_image_t *image, const char *func,
+hetinv_result_t hv_image_store_channel_name(hetinv_image_t *image,
                                             int32_t channel, const char *name) {
   char *copy = hv_strdup(image->ctx, name);
   if (copy == NULL) {
-    return hv_fail(image->ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+    return HV_FAIL(image->ctx, HETINV_ERROR_OUT_OF_MEMORY,
                    "cannot allocate the name of channel %d", (int)channel);
   }
   hv_free(image->ctx, image->channel_names[channel]);
@@ -202,6 +206,7 @@ hetinv_result_t hv_image_store_channel_name(hetinv_image_t *image, const char *f
 
 HETINV_API hetinv_result_t hetinv_image_set_channel_name(hetinv_image_t *image, int32_t channel,
                                                          const char *name) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, image);
   HV_CHECK_NULL(image->ctx, name);
   if (channel < 0 || channel >= image->channel_count) {
@@ -209,18 +214,19 @@ HETINV_API hetinv_result_t hetinv_image_set_channel_name(hetinv_image_t *image, 
                    "channel is %d; the image has %d channels (0 to %d)", (int)channel,
                    (int)image->channel_count, (int)image->channel_count - 1);
   }
-  if (!hv_image_name_is_valid(name)) return fail_name(image->ctx, __func__, "channel name", name);
+  if (!hv_image_name_is_valid(name)) return fail_name(image->ctx, "channel name", name);
   int32_t other = find_channel(image, name);
   if (other == channel) return HETINV_SUCCESS;
   if (other >= 0) {
     return HV_FAIL(image->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "channel name \"%s\" is already used by channel %d", name, (int)other);
   }
-  return hv_image_store_channel_name(image, __func__, channel, name);
+  return hv_image_store_channel_name(image, channel, name);
 }
 
 HETINV_API hetinv_result_t hetinv_image_find_channel(const hetinv_image_t *image, const char *name,
                                                      int32_t *channel) {
+  HV_API_ENTER();
   if (channel != NULL) *channel = -1;
   HV_CHECK_NULL(NULL, image);
   HV_CHECK_NULL(image->ctx, name);
@@ -241,7 +247,7 @@ static int32_t find_attribute(const hetinv_image_t *image, const char *name) {
   return -1;
 }
 
-hetinv_result_t hv_image_store_attribute(hetinv_image_t *image, const char *func, const char *name,
+hetinv_result_t hv_image_store_attribute(hetinv_image_t *image, const char *name,
                                          hetinv_attribute_type_t type, const char *string,
                                          double real, int32_t integer) {
   const hetinv_context_t *ctx = image->ctx;
@@ -249,7 +255,7 @@ hetinv_result_t hv_image_store_attribute(hetinv_image_t *image, const char *func
   if (type == HETINV_ATTRIBUTE_STRING) {
     value.string = hv_strdup(ctx, string);
     if (value.string == NULL) {
-      return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+      return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                      "cannot allocate the value of attribute \"%s\"", name);
     }
   }
@@ -278,21 +284,19 @@ hetinv_result_t hv_image_store_attribute(hetinv_image_t *image, const char *func
   }
   if (value.name == NULL) {
     hv_free(ctx, value.string);
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate attribute \"%s\"",
-                   name);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate attribute \"%s\"", name);
   }
   image->attributes[image->attribute_count++] = value;
   return HETINV_SUCCESS;
 }
 
 /* Common checks of the three setters. */
-static hetinv_result_t check_attribute_name(const hetinv_image_t *image, const char *func,
-                                            const char *name) {
-  if (image == NULL) return hv_fail(NULL, HETINV_ERROR_NULL_ARGUMENT, func, "'image' is NULL");
-  if (name == NULL) return hv_fail(image->ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'name' is NULL");
-  if (!hv_image_name_is_valid(name)) return fail_name(image->ctx, func, "attribute name", name);
+static hetinv_result_t check_attribute_name(const hetinv_image_t *image, const char *name) {
+  if (image == NULL) return HV_FAIL(NULL, HETINV_ERROR_NULL_ARGUMENT, "'image' is NULL");
+  if (name == NULL) return HV_FAIL(image->ctx, HETINV_ERROR_NULL_ARGUMENT, "'name' is NULL");
+  if (!hv_image_name_is_valid(name)) return fail_name(image->ctx, "attribute name", name);
   if (hv_image_attribute_is_reserved(name)) {
-    return hv_fail(image->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(image->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "attribute name \"%s\" is reserved (OpenEXR or libhetinv writes it itself)",
                    name);
   }
@@ -301,7 +305,8 @@ static hetinv_result_t check_attribute_name(const hetinv_image_t *image, const c
 
 HETINV_API hetinv_result_t hetinv_image_set_attribute_string(hetinv_image_t *image,
                                                              const char *name, const char *value) {
-  hetinv_result_t r = check_attribute_name(image, __func__, name);
+  HV_API_ENTER();
+  hetinv_result_t r = check_attribute_name(image, name);
   if (r != HETINV_SUCCESS) return r;
   HV_CHECK_NULL(image->ctx, value);
   size_t n = strlen(value);
@@ -310,34 +315,38 @@ HETINV_API hetinv_result_t hetinv_image_set_attribute_string(hetinv_image_t *ima
                    "the value of attribute \"%s\" is %zu bytes long; at most %d are allowed", name,
                    n, HV_IMAGE_STRING_MAX);
   }
-  return hv_image_store_attribute(image, __func__, name, HETINV_ATTRIBUTE_STRING, value, 0.0, 0);
+  return hv_image_store_attribute(image, name, HETINV_ATTRIBUTE_STRING, value, 0.0, 0);
 }
 
 HETINV_API hetinv_result_t hetinv_image_set_attribute_double(hetinv_image_t *image,
                                                              const char *name, double value) {
-  hetinv_result_t r = check_attribute_name(image, __func__, name);
+  HV_API_ENTER();
+  hetinv_result_t r = check_attribute_name(image, name);
   if (r != HETINV_SUCCESS) return r;
   if (!isfinite(value)) {
     return HV_FAIL(image->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the value of attribute \"%s\" is %g; it must be finite", name, value);
   }
-  return hv_image_store_attribute(image, __func__, name, HETINV_ATTRIBUTE_DOUBLE, NULL, value, 0);
+  return hv_image_store_attribute(image, name, HETINV_ATTRIBUTE_DOUBLE, NULL, value, 0);
 }
 
 HETINV_API hetinv_result_t hetinv_image_set_attribute_int(hetinv_image_t *image, const char *name,
                                                           int32_t value) {
-  hetinv_result_t r = check_attribute_name(image, __func__, name);
+  HV_API_ENTER();
+  hetinv_result_t r = check_attribute_name(image, name);
   if (r != HETINV_SUCCESS) return r;
-  return hv_image_store_attribute(image, __func__, name, HETINV_ATTRIBUTE_INT, NULL, 0.0, value);
+  return hv_image_store_attribute(image, name, HETINV_ATTRIBUTE_INT, NULL, 0.0, value);
 }
 
 HETINV_API int32_t hetinv_image_attribute_count(const hetinv_image_t *image) {
+  HV_API_ENTER();
   return image != NULL ? image->attribute_count : 0;
 }
 
 HETINV_API hetinv_result_t hetinv_image_attribute_at(const hetinv_image_t *image, int32_t index,
                                                      const char **name,
                                                      hetinv_attribute_type_t *type) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, image);
   if (index < 0 || index >= image->attribute_count) {
     return HV_FAIL(image->ctx, HETINV_ERROR_OUT_OF_RANGE,
@@ -358,21 +367,20 @@ static const char *type_name(hetinv_attribute_type_t type) {
 }
 
 /* The attribute called @p name if it has type @p type, else a failure. */
-static hetinv_result_t lookup(const hetinv_image_t *image, const char *func, const char *name,
+static hetinv_result_t lookup(const hetinv_image_t *image, const char *name,
                               const void *value, hetinv_attribute_type_t type,
                               const hv_image_attribute_t **found) {
-  if (image == NULL) return hv_fail(NULL, HETINV_ERROR_NULL_ARGUMENT, func, "'image' is NULL");
-  if (name == NULL) return hv_fail(image->ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'name' is NULL");
+  if (image == NULL) return HV_FAIL(NULL, HETINV_ERROR_NULL_ARGUMENT, "'image' is NULL");
+  if (name == NULL) return HV_FAIL(image->ctx, HETINV_ERROR_NULL_ARGUMENT, "'name' is NULL");
   if (value == NULL) {
-    return hv_fail(image->ctx, HETINV_ERROR_NULL_ARGUMENT, func, "'value' is NULL");
+    return HV_FAIL(image->ctx, HETINV_ERROR_NULL_ARGUMENT, "'value' is NULL");
   }
   int32_t i = find_attribute(image, name);
   if (i < 0) {
-    return hv_fail(image->ctx, HETINV_ERROR_OUT_OF_RANGE, func, "no attribute is called \"%s\"",
-                   name);
+    return HV_FAIL(image->ctx, HETINV_ERROR_OUT_OF_RANGE, "no attribute is called \"%s\"", name);
   }
   if (image->attributes[i].type != type) {
-    return hv_fail(image->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(image->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "attribute \"%s\" is %s, not %s", name, type_name(image->attributes[i].type),
                    type_name(type));
   }
@@ -382,24 +390,27 @@ static hetinv_result_t lookup(const hetinv_image_t *image, const char *func, con
 
 HETINV_API hetinv_result_t hetinv_image_get_attribute_string(const hetinv_image_t *image,
                                                              const char *name, const char **value) {
+  HV_API_ENTER();
   const hv_image_attribute_t *a = NULL;
-  hetinv_result_t r = lookup(image, __func__, name, value, HETINV_ATTRIBUTE_STRING, &a);
+  hetinv_result_t r = lookup(image, name, value, HETINV_ATTRIBUTE_STRING, &a);
   if (r == HETINV_SUCCESS) *value = a->string;
   return r;
 }
 
 HETINV_API hetinv_result_t hetinv_image_get_attribute_double(const hetinv_image_t *image,
                                                              const char *name, double *value) {
+  HV_API_ENTER();
   const hv_image_attribute_t *a = NULL;
-  hetinv_result_t r = lookup(image, __func__, name, value, HETINV_ATTRIBUTE_DOUBLE, &a);
+  hetinv_result_t r = lookup(image, name, value, HETINV_ATTRIBUTE_DOUBLE, &a);
   if (r == HETINV_SUCCESS) *value = a->real;
   return r;
 }
 
 HETINV_API hetinv_result_t hetinv_image_get_attribute_int(const hetinv_image_t *image,
                                                           const char *name, int32_t *value) {
+  HV_API_ENTER();
   const hv_image_attribute_t *a = NULL;
-  hetinv_result_t r = lookup(image, __func__, name, value, HETINV_ATTRIBUTE_INT, &a);
+  hetinv_result_t r = lookup(image, name, value, HETINV_ATTRIBUTE_INT, &a);
   if (r == HETINV_SUCCESS) *value = a->integer;
   return r;
 }

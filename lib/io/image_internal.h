@@ -39,7 +39,7 @@ struct hetinv_image {
 
 /* Allocates a zeroed image with channels "c0", "c1", ...; the caller has
  * checked the dimensions (> 0, width·height·channels·4 fits in size_t). */
-hetinv_result_t hv_image_alloc(hetinv_context_t *ctx, const char *func, int32_t width,
+hetinv_result_t hv_image_alloc(hetinv_context_t *ctx, int32_t width,
                                int32_t height, int32_t channel_count, hetinv_image_t **out);
 
 /* True if @p name is 1 to 255 bytes of printable ASCII. */
@@ -50,11 +50,11 @@ bool hv_image_attribute_is_reserved(const char *name);
 
 /* Stores a copy of @p name as the channel's name (no validation: the caller
  * checked it and its uniqueness). Fails only for lack of memory. */
-hetinv_result_t hv_image_store_channel_name(hetinv_image_t *image, const char *func,
+hetinv_result_t hv_image_store_channel_name(hetinv_image_t *image,
                                             int32_t channel, const char *name);
 /* Adds or replaces an attribute (no validation of name or value). Fails only
  * for lack of memory. @p string is used for HETINV_ATTRIBUTE_STRING only. */
-hetinv_result_t hv_image_store_attribute(hetinv_image_t *image, const char *func, const char *name,
+hetinv_result_t hv_image_store_attribute(hetinv_image_t *image, const char *name,
                                          hetinv_attribute_type_t type, const char *string,
                                          double real, int32_t integer);
 

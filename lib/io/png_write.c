@@ -120,6 +120,7 @@ static void finite_range(const float *v, size_t n, double *lo, double *hi) {
 HETINV_API hetinv_result_t hetinv_image_write_png(const hetinv_image_t *image, int32_t channel,
                                                   const char *path, double lo, double hi,
                                                   int32_t colormap) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, image);
   const hetinv_context_t *ctx = image->ctx;
   HV_CHECK_NULL(ctx, path);
@@ -151,7 +152,7 @@ HETINV_API hetinv_result_t hetinv_image_write_png(const hetinv_image_t *image, i
                    (int)image->width);
   }
   hv_atomic_file_t file;
-  hetinv_result_t r = hv_atomic_open(ctx, __func__, path, 1, &file);
+  hetinv_result_t r = hv_atomic_open(ctx, path, 1, &file);
   if (r != HETINV_SUCCESS) {
     hv_free(ctx, job.row);
     return r;

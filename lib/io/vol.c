@@ -62,14 +62,14 @@ static const char *encoding_name(int32_t encoding) {
 }
 
 /* dims·channels values and their size in bytes, or SIZE_OVERFLOW. */
-static hetinv_result_t value_count(const hetinv_context_t *ctx, const char *func,
+static hetinv_result_t value_count(const hetinv_context_t *ctx,
                                    const char *source, const hetinv_vol_header_t *h,
                                    size_t *count) {
   size_t n = (size_t)h->channels, bytes;
   bool ok = hv_mul_size(n, (size_t)h->dims[0], &n) && hv_mul_size(n, (size_t)h->dims[1], &n) &&
             hv_mul_size(n, (size_t)h->dims[2], &n) && hv_mul_size(n, sizeof(float), &bytes);
   if (!ok) {
-    return hv_fail(ctx, HETINV_ERROR_SIZE_OVERFLOW, func,
+    return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW,
                    "%s: %d x %d x %d voxels, channels %d, overflow size_t", source,
                    (int)h->dims[0], (int)h->dims[1], (int)h->dims[2], (int)h->channels);
   }
@@ -77,14 +77,14 @@ static hetinv_result_t value_count(const hetinv_context_t *ctx, const char *func
   return HETINV_SUCCESS;
 }
 
-hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx, const char *func,
+hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx,
                                     const char *source, const unsigned char *bytes, size_t size,
                                     uint64_t file_size, hetinv_vol_header_t *header,
                                     size_t *value_count_out) {
   memset(header, 0, sizeof *header);
   *value_count_out = 0;
   if (size == 0 || file_size == 0) {
-    return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+    return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                    "%s is empty; a .vol file starts with a %d-byte header", source,
                    HV_VOL_HEADER_SIZE);
   }
@@ -93,22 +93,22 @@ hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx, const char *fun
     for (size_t i = 0; i < 3 && i < size; ++i) {
       snprintf(magic + 4 * i, sizeof magic - 4 * i, "\\x%02x", (unsigned)bytes[i]);
     }
-    return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+    return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                    "%s is not a .vol file: it starts with \"%s\", not \"VOL\"", source, magic);
   }
   if (size > 3 && bytes[3] != 3) {
-    return hv_fail(ctx, HETINV_ERROR_UNSUPPORTED, func,
+    return HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED,
                    "%s has .vol version %u; only version 3 is supported", source,
                    (unsigned)bytes[3]);
   }
   if (size < HV_VOL_HEADER_SIZE) {
-    return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+    return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                    "%s is truncated: the header needs %d bytes, there are %zu", source,
                    HV_VOL_HEADER_SIZE, size);
   }
   int32_t encoding = get_i32(bytes + 4);
   if (encoding != 1) {
-    return hv_fail(ctx, HETINV_ERROR_UNSUPPORTED, func,
+    return HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED,
                    "%s: encoding is %d (%s); only 1 (float32) is supported", source,
                    (int)encoding, encoding_name(encoding));
   }
@@ -116,12 +116,12 @@ hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx, const char *fun
   for (int i = 0; i < 3; ++i) h.dims[i] = get_i32(bytes + 8 + 4 * i);
   h.channels = get_i32(bytes + 20);
   if (h.channels != 1 && h.channels != 3) {
-    return hv_fail(ctx, HETINV_ERROR_UNSUPPORTED, func,
+    return HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED,
                    "%s: channels is %d; only 1 or 3 are supported", source, (int)h.channels);
   }
   for (int i = 0; i < 3; ++i) {
     if (h.dims[i] <= 0) {
-      return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func, "%s: %s is %d; it must be > 0",
+      return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE, "%s: %s is %d; it must be > 0",
                      source, dim_names[i], (int)h.dims[i]);
     }
   }
@@ -130,24 +130,24 @@ hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx, const char *fun
     h.box_max[i] = (double)get_f32(bytes + 36 + 4 * i);
     if (!isfinite(h.box_min[i]) || !isfinite(h.box_max[i]) || h.box_min[i] > h.box_max[i]) {
       /* A degenerate box (min == max) occurs in real Mitsuba files and is accepted. */
-      return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+      return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                      "%s: the box along %c is [%g, %g]; both ends must be finite and min <= max",
                      source, axis_names[i], h.box_min[i], h.box_max[i]);
     }
   }
   size_t count = 0;
-  hetinv_result_t r = value_count(ctx, func, source, &h, &count);
+  hetinv_result_t r = value_count(ctx, source, &h, &count);
   if (r != HETINV_SUCCESS) return r;
   /* Compared with the file's length before anyone allocates for the values. */
   uint64_t need = (uint64_t)count * sizeof(float), have = file_size - HV_VOL_HEADER_SIZE;
   if (file_size < HV_VOL_HEADER_SIZE || need > have) {
-    return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+    return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                    "%s is truncated: the header says %zu values (%" PRIu64
                    " bytes), the file holds %" PRIu64 " bytes after the header",
                    source, count, need, file_size < HV_VOL_HEADER_SIZE ? 0 : have);
   }
   if (need < have) {
-    return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+    return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                    "%s has %" PRIu64 " trailing bytes after the %zu values the header announces",
                    source, have - need, count);
   }
@@ -156,7 +156,7 @@ hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx, const char *fun
   return HETINV_SUCCESS;
 }
 
-hetinv_result_t hv_vol_decode_values(const hetinv_context_t *ctx, const char *func,
+hetinv_result_t hv_vol_decode_values(const hetinv_context_t *ctx,
                                      const char *source, const hetinv_vol_header_t *header,
                                      const unsigned char *bytes, size_t first, size_t n,
                                      float *out) {
@@ -165,7 +165,7 @@ hetinv_result_t hv_vol_decode_values(const hetinv_context_t *ctx, const char *fu
     if (!isfinite(v)) {
       size_t i = first + k, ch = (size_t)header->channels, voxel = i / ch;
       size_t nx = (size_t)header->dims[0], ny = (size_t)header->dims[1];
-      return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+      return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                      "%s: the value of voxel (%zu, %zu, %zu), channel %zu is %g; values must "
                      "be finite",
                      source, voxel % nx, voxel / nx % ny, voxel / (nx * ny), i % ch, (double)v);
@@ -175,24 +175,24 @@ hetinv_result_t hv_vol_decode_values(const hetinv_context_t *ctx, const char *fu
   return HETINV_SUCCESS;
 }
 
-static hetinv_result_t check_capacity(const hetinv_context_t *ctx, const char *func,
+static hetinv_result_t check_capacity(const hetinv_context_t *ctx,
                                       const char *source, size_t count, size_t capacity) {
   if (capacity >= count) return HETINV_SUCCESS;
-  return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+  return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                  "capacity is %zu floats; %s holds %zu values", capacity, source, count);
 }
 
-hetinv_result_t hv_vol_parse(const hetinv_context_t *ctx, const char *func, const char *source,
+hetinv_result_t hv_vol_parse(const hetinv_context_t *ctx, const char *source,
                              const unsigned char *bytes, size_t size, hetinv_vol_header_t *header,
                              float *data, size_t capacity) {
   hetinv_vol_header_t h;
   size_t count;
   memset(header, 0, sizeof *header);
-  hetinv_result_t r = hv_vol_parse_header(ctx, func, source, bytes, size, size, &h, &count);
+  hetinv_result_t r = hv_vol_parse_header(ctx, source, bytes, size, size, &h, &count);
   if (r == HETINV_SUCCESS && data != NULL) {
-    r = check_capacity(ctx, func, source, count, capacity);
+    r = check_capacity(ctx, source, count, capacity);
     if (r == HETINV_SUCCESS) {
-      r = hv_vol_decode_values(ctx, func, source, &h, bytes + HV_VOL_HEADER_SIZE, 0, count, data);
+      r = hv_vol_decode_values(ctx, source, &h, bytes + HV_VOL_HEADER_SIZE, 0, count, data);
     }
   }
   if (r == HETINV_SUCCESS) *header = h;
@@ -201,7 +201,7 @@ hetinv_result_t hv_vol_parse(const hetinv_context_t *ctx, const char *func, cons
 
 /* Streams the values after the header through a small buffer. The file's
  * size was checked, but it may change while we read. */
-static hetinv_result_t read_values(const hetinv_context_t *ctx, const char *func,
+static hetinv_result_t read_values(const hetinv_context_t *ctx,
                                    const char *source, FILE *fp, const hetinv_vol_header_t *h,
                                    size_t count, float *data) {
   unsigned char buf[CHUNK_VALUES * 4];
@@ -209,18 +209,18 @@ static hetinv_result_t read_values(const hetinv_context_t *ctx, const char *func
     size_t n = count - done < CHUNK_VALUES ? count - done : CHUNK_VALUES;
     if (fread(buf, 4, n, fp) != n) {
       if (ferror(fp)) {
-        return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot read %s: %s", source, strerror(errno));
+        return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot read %s: %s", source, strerror(errno));
       }
-      return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+      return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                      "%s is truncated: it ended while being read, before value %zu of %zu",
                      source, done, count);
     }
-    hetinv_result_t r = hv_vol_decode_values(ctx, func, source, h, buf, done, n, data + done);
+    hetinv_result_t r = hv_vol_decode_values(ctx, source, h, buf, done, n, data + done);
     if (r != HETINV_SUCCESS) return r;
     done += n;
   }
   if (fgetc(fp) != EOF) {
-    return hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+    return HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                    "%s has trailing bytes after the %zu values the header announces", source,
                    count);
   }
@@ -228,74 +228,74 @@ static hetinv_result_t read_values(const hetinv_context_t *ctx, const char *func
 }
 
 /* hv_vol_read_file's work on an open file; @p source is "'<path>'". */
-static hetinv_result_t read_open_file(const hetinv_context_t *ctx, const char *func,
+static hetinv_result_t read_open_file(const hetinv_context_t *ctx,
                                       const char *source, FILE *fp, hetinv_vol_header_t *h,
                                       float *data, size_t capacity) {
   struct stat st;
   if (fstat(fileno(fp), &st) != 0) {
-    return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot stat %s: %s", source, strerror(errno));
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot stat %s: %s", source, strerror(errno));
   }
   if (!S_ISREG(st.st_mode)) {
-    return hv_fail(ctx, HETINV_ERROR_IO, func, "%s is not a regular file", source);
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "%s is not a regular file", source);
   }
   unsigned char head[HV_VOL_HEADER_SIZE];
   size_t got = fread(head, 1, sizeof head, fp);
   if (ferror(fp)) {
-    return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot read %s: %s", source, strerror(errno));
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot read %s: %s", source, strerror(errno));
   }
   size_t count;
   hetinv_result_t r =
-      hv_vol_parse_header(ctx, func, source, head, got, (uint64_t)st.st_size, h, &count);
+      hv_vol_parse_header(ctx, source, head, got, (uint64_t)st.st_size, h, &count);
   if (r != HETINV_SUCCESS || data == NULL) return r;
-  r = check_capacity(ctx, func, source, count, capacity);
+  r = check_capacity(ctx, source, count, capacity);
   if (r != HETINV_SUCCESS) return r;
-  return read_values(ctx, func, source, fp, h, count, data);
+  return read_values(ctx, source, fp, h, count, data);
 }
 
-hetinv_result_t hv_vol_read_file(const hetinv_context_t *ctx, const char *func, const char *path,
+hetinv_result_t hv_vol_read_file(const hetinv_context_t *ctx, const char *path,
                                  hetinv_vol_header_t *header, float *data, size_t capacity) {
   char source[1024];
   snprintf(source, sizeof source, "'%s'", path);
   memset(header, 0, sizeof *header);
   FILE *fp = fopen(path, "rb");
   if (fp == NULL) {
-    return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot open %s: %s", source, strerror(errno));
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot open %s: %s", source, strerror(errno));
   }
   hetinv_vol_header_t h;
-  hetinv_result_t r = read_open_file(ctx, func, source, fp, &h, data, capacity);
+  hetinv_result_t r = read_open_file(ctx, source, fp, &h, data, capacity);
   fclose(fp);
   if (r == HETINV_SUCCESS) *header = h;
   return r;
 }
 
 /* The header rules of hetinv_vol_write(); sets *count = dims·channels. */
-static hetinv_result_t check_header(const hetinv_context_t *ctx, const char *func,
+static hetinv_result_t check_header(const hetinv_context_t *ctx,
                                     const hetinv_vol_header_t *h, size_t *count) {
   for (int i = 0; i < 3; ++i) {
     if (h->dims[i] <= 0) {
-      return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+      return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "header->dims[%d] (%s) is %d; it must be > 0", i, dim_names[i],
                      (int)h->dims[i]);
     }
   }
   if (h->channels != 1 && h->channels != 3) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "header->channels is %d; it must be 1 or 3", (int)h->channels);
   }
   for (int i = 0; i < 3; ++i) {
     double lo = h->box_min[i], hi = h->box_max[i];
     /* fabs() <= FLT_MAX also rejects NaN and keeps the float conversion defined. */
     if (!(fabs(lo) <= (double)FLT_MAX) || !(fabs(hi) <= (double)FLT_MAX) || !(lo < hi)) {
-      return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+      return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "the box along %c is [%g, %g]; both ends must be finite float32 values "
                      "and box_min < box_max",
                      axis_names[i], lo, hi);
     }
   }
-  return value_count(ctx, func, "the header", h, count);
+  return value_count(ctx, "the header", h, count);
 }
 
-static hetinv_result_t write_payload(const hetinv_context_t *ctx, const char *func,
+static hetinv_result_t write_payload(const hetinv_context_t *ctx,
                                      const char *path, FILE *fp, const hetinv_vol_header_t *h,
                                      const float *data, size_t count) {
   unsigned char buf[CHUNK_VALUES * 4];
@@ -315,18 +315,18 @@ static hetinv_result_t write_payload(const hetinv_context_t *ctx, const char *fu
     done += n;
   }
   if (ok) return HETINV_SUCCESS;
-  return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot write '%s': %s", path,
+  return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot write '%s': %s", path,
                  strerror(errno ? errno : EIO));
 }
 
-hetinv_result_t hv_vol_write_file(const hetinv_context_t *ctx, const char *func, const char *path,
+hetinv_result_t hv_vol_write_file(const hetinv_context_t *ctx, const char *path,
                                   const hetinv_vol_header_t *header, const float *data,
                                   size_t count) {
   size_t expected = 0;
-  hetinv_result_t r = check_header(ctx, func, header, &expected);
+  hetinv_result_t r = check_header(ctx, header, &expected);
   if (r != HETINV_SUCCESS) return r;
   if (count != expected) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "count is %zu; %d x %d x %d voxels, channels %d, need %zu values", count,
                    (int)header->dims[0], (int)header->dims[1], (int)header->dims[2],
                    (int)header->channels, expected);
@@ -336,16 +336,16 @@ hetinv_result_t hv_vol_write_file(const hetinv_context_t *ctx, const char *func,
   for (size_t i = 0; i < count; ++i) {
     if (!isfinite(data[i])) {
       size_t voxel = i / ch;
-      return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+      return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "data[%zu] (voxel (%zu, %zu, %zu), channel %zu) is %g; values must be "
                      "finite",
                      i, voxel % nx, voxel / nx % ny, voxel / (nx * ny), i % ch, (double)data[i]);
     }
   }
   hv_atomic_file_t f;
-  r = hv_atomic_open(ctx, func, path, 1, &f);
+  r = hv_atomic_open(ctx, path, 1, &f);
   if (r != HETINV_SUCCESS) return r;
-  r = write_payload(ctx, func, path, f.fp, header, data, count);
+  r = write_payload(ctx, path, f.fp, header, data, count);
   if (r != HETINV_SUCCESS) {
     hv_atomic_abort(&f);
     return r;
@@ -355,30 +355,33 @@ hetinv_result_t hv_vol_write_file(const hetinv_context_t *ctx, const char *func,
 
 HETINV_API hetinv_result_t hetinv_vol_read_header(hetinv_context_t *ctx, const char *path,
                                                   hetinv_vol_header_t *header) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, header);
   memset(header, 0, sizeof *header);
   HV_CHECK_NULL(ctx, ctx);
   HV_CHECK_NULL(ctx, path);
-  return hv_vol_read_file(ctx, __func__, path, header, NULL, 0);
+  return hv_vol_read_file(ctx, path, header, NULL, 0);
 }
 
 HETINV_API hetinv_result_t hetinv_vol_read(hetinv_context_t *ctx, const char *path,
                                            hetinv_vol_header_t *header, float *data,
                                            size_t capacity) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, header);
   memset(header, 0, sizeof *header);
   HV_CHECK_NULL(ctx, ctx);
   HV_CHECK_NULL(ctx, path);
   HV_CHECK_NULL(ctx, data);
-  return hv_vol_read_file(ctx, __func__, path, header, data, capacity);
+  return hv_vol_read_file(ctx, path, header, data, capacity);
 }
 
 HETINV_API hetinv_result_t hetinv_vol_write(hetinv_context_t *ctx, const char *path,
                                             const hetinv_vol_header_t *header, const float *data,
                                             size_t count) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, ctx);
   HV_CHECK_NULL(ctx, path);
   HV_CHECK_NULL(ctx, header);
   HV_CHECK_NULL(ctx, data);
-  return hv_vol_write_file(ctx, __func__, path, header, data, count);
+  return hv_vol_write_file(ctx, path, header, data, count);
 }

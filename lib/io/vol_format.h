@@ -12,9 +12,9 @@ enum { HV_VOL_HEADER_SIZE = 48 }; /* "VOL", version, encoding, 3 dims, channels,
 
 /* Validates the header in bytes[0, size) (size may exceed the header) and
  * its agreement with @p file_size, the whole file's length in bytes. Sets
- * *header and *value_count (dims·channels). Messages start with @p func and
- * name @p source (a path, or a description of an in-memory buffer). */
-hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx, const char *func,
+ * *header and *value_count (dims·channels). Messages name @p source (a
+ * path, or a description of an in-memory buffer). */
+hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx,
                                     const char *source, const unsigned char *bytes, size_t size,
                                     uint64_t file_size, hetinv_vol_header_t *header,
                                     size_t *value_count);
@@ -22,24 +22,24 @@ hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx, const char *fun
 /* Decodes @p n little-endian float32 values that start at value index
  * @p first of the file described by @p header, rejecting NaN and infinity
  * with a message naming the voxel and channel. */
-hetinv_result_t hv_vol_decode_values(const hetinv_context_t *ctx, const char *func,
+hetinv_result_t hv_vol_decode_values(const hetinv_context_t *ctx,
                                      const char *source, const hetinv_vol_header_t *header,
                                      const unsigned char *bytes, size_t first, size_t n,
                                      float *out);
 
 /* Parses a whole .vol file held in memory: the header, then (if @p data is
  * not NULL) every value into @p data, which holds @p capacity floats. */
-hetinv_result_t hv_vol_parse(const hetinv_context_t *ctx, const char *func, const char *source,
+hetinv_result_t hv_vol_parse(const hetinv_context_t *ctx, const char *source,
                              const unsigned char *bytes, size_t size, hetinv_vol_header_t *header,
                              float *data, size_t capacity);
 
 /* Reads the file at @p path like hv_vol_parse, streaming the values. */
-hetinv_result_t hv_vol_read_file(const hetinv_context_t *ctx, const char *func, const char *path,
+hetinv_result_t hv_vol_read_file(const hetinv_context_t *ctx, const char *path,
                                  hetinv_vol_header_t *header, float *data, size_t capacity);
 
 /* Validates header and data as hetinv_vol_write() documents, then writes
  * the file atomically. */
-hetinv_result_t hv_vol_write_file(const hetinv_context_t *ctx, const char *func, const char *path,
+hetinv_result_t hv_vol_write_file(const hetinv_context_t *ctx, const char *path,
                                   const hetinv_vol_header_t *header, const float *data,
                                   size_t count);
 

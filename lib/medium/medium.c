@@ -6,6 +6,7 @@
 #include "medium/medium_internal.h"
 
 HETINV_API const char *hetinv_param_name(hetinv_param_t param) {
+  HV_API_ENTER();
   switch (param) {
     case HETINV_PARAM_SIGMA_A: return "sigma_a";
     case HETINV_PARAM_SIGMA_S: return "sigma_s";
@@ -20,12 +21,12 @@ const char *hv_medium_value_rule(hetinv_param_t param, double value) {
   return value >= 0.0 ? NULL : "it must be >= 0";
 }
 
-hetinv_result_t hv_medium_check_voxel_value(const hetinv_medium_t *m, const char *func,
+hetinv_result_t hv_medium_check_voxel_value(const hetinv_medium_t *m,
                                             hetinv_param_t param, size_t voxel, double value) {
   const char *rule = hv_medium_value_rule(param, value);
   if (rule == NULL) return HETINV_SUCCESS;
   size_t nx = (size_t)m->dims[0], ny = (size_t)m->dims[1];
-  return hv_fail(m->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+  return HV_FAIL(m->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                  "%s of voxel (%zu, %zu, %zu) is %g; %s", hetinv_param_name(param), voxel % nx,
                  (voxel / nx) % ny, voxel / (nx * ny), value, rule);
 }
@@ -38,11 +39,11 @@ static void free_values(hetinv_medium_t *m) {
 }
 
 /* Allocates a zeroed medium with the given geometry; no validation. */
-static hetinv_result_t allocate(hetinv_context_t *ctx, const char *func, const double box_min[3],
+static hetinv_result_t allocate(hetinv_context_t *ctx, const double box_min[3],
                                 const double box_max[3], const int32_t dims[3], size_t voxels,
                                 hetinv_medium_t **out) {
   hetinv_medium_t *m = hv_calloc(ctx, 1, sizeof *m);
-  if (m == NULL) return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate a medium");
+  if (m == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate a medium");
   m->ctx = ctx;
   memcpy(m->box_min, box_min, sizeof m->box_min);
   memcpy(m->box_max, box_max, sizeof m->box_max);
@@ -54,7 +55,7 @@ static hetinv_result_t allocate(hetinv_context_t *ctx, const char *func, const d
     if (m->values[p] == NULL) {
       free_values(m);
       hv_free(ctx, m);
-      return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+      return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                      "cannot allocate %zu voxels of %s", voxels, hetinv_param_name(p));
     }
   }
@@ -65,6 +66,7 @@ static hetinv_result_t allocate(hetinv_context_t *ctx, const char *func, const d
 HETINV_API hetinv_result_t hetinv_medium_create(hetinv_context_t *ctx, const double box_min[3],
                                                 const double box_max[3], const int32_t dims[3],
                                                 hetinv_medium_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, out);
   *out = NULL;
   HV_CHECK_NULL(ctx, ctx);
@@ -102,16 +104,17 @@ HETINV_API hetinv_result_t hetinv_medium_create(hetinv_context_t *ctx, const dou
                    "%d x %d x %d voxels of 3 doubles overflow size_t", (int)dims[0],
                    (int)dims[1], (int)dims[2]);
   }
-  return allocate(ctx, __func__, box_min, box_max, dims, voxels, out);
+  return allocate(ctx, box_min, box_max, dims, voxels, out);
 }
 
 HETINV_API hetinv_result_t hetinv_medium_clone(const hetinv_medium_t *src, hetinv_medium_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(src ? src->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, src);
   hetinv_medium_t *m = NULL;
   hetinv_result_t r =
-      allocate(src->ctx, __func__, src->box_min, src->box_max, src->dims, src->voxel_count, &m);
+      allocate(src->ctx, src->box_min, src->box_max, src->dims, src->voxel_count, &m);
   if (r != HETINV_SUCCESS) return r;
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) {
     memcpy(m->values[p], src->values[p], src->voxel_count * sizeof(double));
@@ -123,6 +126,7 @@ HETINV_API hetinv_result_t hetinv_medium_clone(const hetinv_medium_t *src, hetin
 }
 
 HETINV_API void hetinv_medium_destroy(hetinv_medium_t **medium) {
+  HV_API_ENTER();
   if (medium == NULL || *medium == NULL) return;
   hetinv_medium_t *m = *medium;
   free_values(m);
@@ -131,10 +135,10 @@ HETINV_API void hetinv_medium_destroy(hetinv_medium_t **medium) {
 }
 
 /* Common guard of every setter. */
-static hetinv_result_t check_mutable(const hetinv_medium_t *m, const char *func) {
-  if (m == NULL) return hv_fail(NULL, HETINV_ERROR_NULL_ARGUMENT, func, "'medium' is NULL");
+static hetinv_result_t check_mutable(const hetinv_medium_t *m) {
+  if (m == NULL) return HV_FAIL(NULL, HETINV_ERROR_NULL_ARGUMENT, "'medium' is NULL");
   if (m->committed) {
-    return hv_fail(m->ctx, HETINV_ERROR_INVALID_STATE, func,
+    return HV_FAIL(m->ctx, HETINV_ERROR_INVALID_STATE,
                    "the medium is committed and immutable; clone it to change it");
   }
   return HETINV_SUCCESS;
@@ -142,7 +146,8 @@ static hetinv_result_t check_mutable(const hetinv_medium_t *m, const char *func)
 
 HETINV_API hetinv_result_t hetinv_medium_set_ior(hetinv_medium_t *medium, double eta,
                                                  double eta_out) {
-  hetinv_result_t r = check_mutable(medium, __func__);
+  HV_API_ENTER();
+  hetinv_result_t r = check_mutable(medium);
   if (r != HETINV_SUCCESS) return r;
   if (!isfinite(eta) || eta <= 0.0) {
     return HV_FAIL(medium->ctx, HETINV_ERROR_INVALID_ARGUMENT,
@@ -159,7 +164,8 @@ HETINV_API hetinv_result_t hetinv_medium_set_ior(hetinv_medium_t *medium, double
 
 HETINV_API hetinv_result_t hetinv_medium_fill(hetinv_medium_t *medium, double sigma_a,
                                               double sigma_s, double g) {
-  hetinv_result_t r = check_mutable(medium, __func__);
+  HV_API_ENTER();
+  hetinv_result_t r = check_mutable(medium);
   const double v[HETINV_PARAM_COUNT] = {sigma_a, sigma_s, g};
   if (r != HETINV_SUCCESS) return r;
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) {
@@ -176,10 +182,10 @@ HETINV_API hetinv_result_t hetinv_medium_fill(hetinv_medium_t *medium, double si
 }
 
 /* Linear index of (ix, iy, iz), or an OUT_OF_RANGE failure naming it. */
-static hetinv_result_t voxel_index(const hetinv_medium_t *m, const char *func, int32_t ix,
+static hetinv_result_t voxel_index(const hetinv_medium_t *m, int32_t ix,
                                    int32_t iy, int32_t iz, size_t *index) {
   if (ix < 0 || iy < 0 || iz < 0 || ix >= m->dims[0] || iy >= m->dims[1] || iz >= m->dims[2]) {
-    return hv_fail(m->ctx, HETINV_ERROR_OUT_OF_RANGE, func,
+    return HV_FAIL(m->ctx, HETINV_ERROR_OUT_OF_RANGE,
                    "voxel (%d, %d, %d) is outside the %d x %d x %d grid", (int)ix, (int)iy,
                    (int)iz, (int)m->dims[0], (int)m->dims[1], (int)m->dims[2]);
   }
@@ -190,12 +196,13 @@ static hetinv_result_t voxel_index(const hetinv_medium_t *m, const char *func, i
 HETINV_API hetinv_result_t hetinv_medium_set_voxel(hetinv_medium_t *medium, int32_t ix,
                                                    int32_t iy, int32_t iz, double sigma_a,
                                                    double sigma_s, double g) {
-  hetinv_result_t r = check_mutable(medium, __func__);
+  HV_API_ENTER();
+  hetinv_result_t r = check_mutable(medium);
   size_t k = 0;
-  if (r == HETINV_SUCCESS) r = voxel_index(medium, __func__, ix, iy, iz, &k);
+  if (r == HETINV_SUCCESS) r = voxel_index(medium, ix, iy, iz, &k);
   const double v[HETINV_PARAM_COUNT] = {sigma_a, sigma_s, g};
   for (int p = 0; r == HETINV_SUCCESS && p < HETINV_PARAM_COUNT; ++p) {
-    r = hv_medium_check_voxel_value(medium, __func__, p, k, v[p]);
+    r = hv_medium_check_voxel_value(medium, p, k, v[p]);
   }
   if (r != HETINV_SUCCESS) return r;
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) medium->values[p][k] = v[p];
@@ -204,7 +211,8 @@ HETINV_API hetinv_result_t hetinv_medium_set_voxel(hetinv_medium_t *medium, int3
 
 HETINV_API hetinv_result_t hetinv_medium_set_grid(hetinv_medium_t *medium, hetinv_param_t param,
                                                   const double *values, size_t count) {
-  hetinv_result_t r = check_mutable(medium, __func__);
+  HV_API_ENTER();
+  hetinv_result_t r = check_mutable(medium);
   if (r != HETINV_SUCCESS) return r;
   HV_CHECK_NULL(medium->ctx, values);
   if (param < 0 || param >= HETINV_PARAM_COUNT) {
@@ -218,7 +226,7 @@ HETINV_API hetinv_result_t hetinv_medium_set_grid(hetinv_medium_t *medium, hetin
                    medium->voxel_count);
   }
   for (size_t i = 0; i < count; ++i) {
-    r = hv_medium_check_voxel_value(medium, __func__, param, i, values[i]);
+    r = hv_medium_check_voxel_value(medium, param, i, values[i]);
     if (r != HETINV_SUCCESS) return r;
   }
   memcpy(medium->values[param], values, count * sizeof(double));
@@ -226,20 +234,24 @@ HETINV_API hetinv_result_t hetinv_medium_set_grid(hetinv_medium_t *medium, hetin
 }
 
 HETINV_API hetinv_result_t hetinv_medium_commit(hetinv_medium_t *medium) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, medium);
   medium->committed = true;
   return HETINV_SUCCESS;
 }
 
 HETINV_API int hetinv_medium_is_committed(const hetinv_medium_t *medium) {
+  HV_API_ENTER();
   return medium != NULL && medium->committed;
 }
 
 HETINV_API hetinv_context_t *hetinv_medium_context(const hetinv_medium_t *medium) {
+  HV_API_ENTER();
   return medium ? medium->ctx : NULL;
 }
 
 HETINV_API hetinv_result_t hetinv_medium_get_dims(const hetinv_medium_t *medium, int32_t dims[3]) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, medium);
   HV_CHECK_NULL(medium->ctx, dims);
   memcpy(dims, medium->dims, sizeof medium->dims);
@@ -247,11 +259,13 @@ HETINV_API hetinv_result_t hetinv_medium_get_dims(const hetinv_medium_t *medium,
 }
 
 HETINV_API size_t hetinv_medium_voxel_count(const hetinv_medium_t *medium) {
+  HV_API_ENTER();
   return medium ? medium->voxel_count : 0;
 }
 
 HETINV_API hetinv_result_t hetinv_medium_get_box(const hetinv_medium_t *medium, double box_min[3],
                                                  double box_max[3]) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, medium);
   if (box_min) memcpy(box_min, medium->box_min, sizeof medium->box_min);
   if (box_max) memcpy(box_max, medium->box_max, sizeof medium->box_max);
@@ -260,6 +274,7 @@ HETINV_API hetinv_result_t hetinv_medium_get_box(const hetinv_medium_t *medium, 
 
 HETINV_API hetinv_result_t hetinv_medium_get_ior(const hetinv_medium_t *medium, double *eta,
                                                  double *eta_out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, medium);
   if (eta) *eta = medium->eta;
   if (eta_out) *eta_out = medium->eta_out;
@@ -269,9 +284,10 @@ HETINV_API hetinv_result_t hetinv_medium_get_ior(const hetinv_medium_t *medium, 
 HETINV_API hetinv_result_t hetinv_medium_get_voxel(const hetinv_medium_t *medium, int32_t ix,
                                                    int32_t iy, int32_t iz, double *sigma_a,
                                                    double *sigma_s, double *g) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, medium);
   size_t k = 0;
-  hetinv_result_t r = voxel_index(medium, __func__, ix, iy, iz, &k);
+  hetinv_result_t r = voxel_index(medium, ix, iy, iz, &k);
   if (r != HETINV_SUCCESS) return r;
   if (sigma_a) *sigma_a = medium->values[HETINV_PARAM_SIGMA_A][k];
   if (sigma_s) *sigma_s = medium->values[HETINV_PARAM_SIGMA_S][k];
@@ -280,6 +296,7 @@ HETINV_API hetinv_result_t hetinv_medium_get_voxel(const hetinv_medium_t *medium
 }
 
 HETINV_API const double *hetinv_medium_grid(const hetinv_medium_t *medium, hetinv_param_t param) {
+  HV_API_ENTER();
   if (medium == NULL || param < 0 || param >= HETINV_PARAM_COUNT) return NULL;
   return medium->values[param];
 }

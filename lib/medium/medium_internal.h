@@ -22,7 +22,7 @@ const char *hv_medium_value_rule(hetinv_param_t param, double value);
 
 /* Checks one value of voxel @p voxel (linear index); on failure records a
  * message naming the voxel and returns HETINV_ERROR_INVALID_ARGUMENT. */
-hetinv_result_t hv_medium_check_voxel_value(const hetinv_medium_t *m, const char *func,
+hetinv_result_t hv_medium_check_voxel_value(const hetinv_medium_t *m,
                                             hetinv_param_t param, size_t voxel, double value);
 
 #endif

@@ -149,7 +149,7 @@ static void put_fingerprint(buf_t *b, const hv_ckpt_fingerprint_t *f) { put(b, f
 
 /* --- write --------------------------------------------------------------- */
 
-hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path, const char *func) {
+hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path) {
   const hetinv_context_t *ctx = opt->ctx;
   if (hetinv_context_rank(ctx) != 0) return HETINV_SUCCESS; /* one writer under MPI: every rank holds the same state */
   buf_t b = {.ctx = ctx};
@@ -178,15 +178,15 @@ hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *p
   put_u64(&b, hv_ckpt_fnv1a(HV_CKPT_FNV_OFFSET, b.data, b.len));
   if (b.failed) {
     hv_free(ctx, b.data);
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot build the checkpoint of '%s'", path);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot build the checkpoint of '%s'", path);
   }
   hv_atomic_file_t af;
-  hetinv_result_t r = hv_atomic_open(ctx, func, path, 1, &af);
+  hetinv_result_t r = hv_atomic_open(ctx, path, 1, &af);
   if (r == HETINV_SUCCESS) {
     if (fwrite(b.data, 1, b.len, af.fp) != b.len) {
       int err = errno;
       hv_atomic_abort(&af);
-      r = hv_fail(ctx, HETINV_ERROR_IO, func, "cannot write the checkpoint '%s': %s", path,
+      r = HV_FAIL(ctx, HETINV_ERROR_IO, "cannot write the checkpoint '%s': %s", path,
                   strerror(err != 0 ? err : EIO));
     } else {
       r = hv_atomic_commit(&af);
@@ -197,11 +197,12 @@ hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *p
 }
 
 HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optimizer, const char *path) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   HV_CHECK_NULL(optimizer->ctx, path);
   if (!optimizer->started) {
     return HV_FAIL(optimizer->ctx, HETINV_ERROR_INVALID_STATE, "nothing to save: the run has not started");
   }
-  return hv_checkpoint_write(optimizer, path, __func__);
+  return hv_checkpoint_write(optimizer, path);
 }
 

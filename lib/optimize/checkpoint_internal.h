@@ -42,6 +42,6 @@ const char *hv_ckpt_fingerprint_diff(const hv_ckpt_fingerprint_t *a, const hv_ck
  * was. hetinv_optimizer_resume() reads the file and calls this; the
  * checkpoint fuzzer calls it directly. */
 hetinv_result_t hv_checkpoint_restore(hetinv_optimizer_t *opt, const unsigned char *data, size_t len,
-                                      const char *name, const char *func);
+                                      const char *name);
 
 #endif

@@ -27,7 +27,7 @@
 
 typedef struct reader {
   const hetinv_context_t *ctx;
-  const char *name, *func;
+  const char *name;
   const unsigned char *p;
   size_t len, at;
   bool short_read;
@@ -63,7 +63,7 @@ static hetinv_result_t corrupt(const reader_t *r, const char *fmt, ...) {
   va_start(ap, fmt);
   vsnprintf(msg, sizeof msg, fmt, ap);
   va_end(ap);
-  return hv_fail(r->ctx, HETINV_ERROR_CORRUPT_FILE, r->func, "%s: %s", r->name, msg);
+  return HV_FAIL(r->ctx, HETINV_ERROR_CORRUPT_FILE, "%s: %s", r->name, msg);
 }
 
 /* --- sizes ----------------------------------------------------------------- */
@@ -103,33 +103,33 @@ static uint64_t max_checkpoint_size(const hetinv_optimizer_t *opt) {
  * of a FIFO from waiting for a writer (it is refused after fstat); it does
  * not change reads of a regular file. */
 static hetinv_result_t read_file(const hetinv_context_t *ctx, const char *path, uint64_t limit,
-                                 unsigned char **data, size_t *len, const char *func) {
+                                 unsigned char **data, size_t *len) {
   *data = NULL;
   *len = 0;
   int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-  if (fd < 0) return hv_fail(ctx, HETINV_ERROR_IO, func, "cannot open the checkpoint '%s': %s", path, strerror(errno));
+  if (fd < 0) return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot open the checkpoint '%s': %s", path, strerror(errno));
   struct stat st;
   hetinv_result_t r = HETINV_SUCCESS;
   if (fstat(fd, &st) != 0) {
-    r = hv_fail(ctx, HETINV_ERROR_IO, func, "cannot stat the checkpoint '%s': %s", path, strerror(errno));
+    r = HV_FAIL(ctx, HETINV_ERROR_IO, "cannot stat the checkpoint '%s': %s", path, strerror(errno));
   } else if (!S_ISREG(st.st_mode)) {
-    r = hv_fail(ctx, HETINV_ERROR_IO, func, "the checkpoint '%s' is not a regular file", path);
+    r = HV_FAIL(ctx, HETINV_ERROR_IO, "the checkpoint '%s' is not a regular file", path);
   } else if (st.st_size < 0 || (uint64_t)st.st_size > limit || (uint64_t)st.st_size > SIZE_MAX) {
-    r = hv_fail(ctx, HETINV_ERROR_CORRUPT_FILE, func,
+    r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
                 "the checkpoint '%s' is %lld bytes; a checkpoint of this run has at most %llu", path,
                 (long long)st.st_size, (unsigned long long)limit);
   }
   size_t size = r == HETINV_SUCCESS ? (size_t)st.st_size : 0;
   unsigned char *buf = size > 0 ? hv_alloc(ctx, size) : NULL;
   if (r == HETINV_SUCCESS && size > 0 && buf == NULL) {
-    r = hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot hold the %zu-byte checkpoint '%s'", size, path);
+    r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot hold the %zu-byte checkpoint '%s'", size, path);
   }
   size_t got = 0;
   while (r == HETINV_SUCCESS && got < size) {
     ssize_t n = read(fd, buf + got, size - got);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
-      r = hv_fail(ctx, HETINV_ERROR_IO, func, "cannot read the checkpoint '%s': %s", path,
+      r = HV_FAIL(ctx, HETINV_ERROR_IO, "cannot read the checkpoint '%s': %s", path,
                   n < 0 ? strerror(errno) : "it became shorter while being read");
     } else {
       got += (size_t)n;
@@ -293,7 +293,7 @@ static hetinv_result_t read_losses(reader_t *rd, hetinv_optimizer_t *opt, uint64
   /* count is bounded by the schedule and matches the file's length. */
   opt->losses = hv_calloc(rd->ctx, (size_t)count, sizeof(double));
   if (opt->losses == NULL) {
-    return hv_fail(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, rd->func, "cannot hold %llu losses",
+    return HV_FAIL(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot hold %llu losses",
                    (unsigned long long)count);
   }
   opt->loss_capacity = opt->loss_count = (size_t)count;
@@ -345,7 +345,7 @@ static hetinv_result_t read_base(reader_t *rd, const hetinv_optimizer_t *opt, he
   if (r != HETINV_SUCCESS) return r;
   size_t v = hetinv_medium_voxel_count(opt->initial);
   double *grid = hv_calloc(rd->ctx, v, sizeof(double));
-  if (grid == NULL) r = hv_fail(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, rd->func, "cannot hold the base medium");
+  if (grid == NULL) r = HV_FAIL(rd->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot hold the base medium");
   for (int p = 0; r == HETINV_SUCCESS && p < HETINV_PARAM_COUNT; ++p) {
     get(rd, grid, v * sizeof(double));
     r = check_base_grid(rd, opt, p, grid, v);
@@ -380,7 +380,7 @@ static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckp
     return corrupt(rd, "damaged: its checksum does not match");
   }
   if (tag != HV_CKPT_BYTE_ORDER_TAG || version != HV_CKPT_FORMAT_VERSION) {
-    return hv_fail(rd->ctx, HETINV_ERROR_UNSUPPORTED, rd->func, "%s: checkpoint format %llu or byte order not supported",
+    return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED, "%s: checkpoint format %llu or byte order not supported",
                    rd->name, (unsigned long long)version);
   }
   get(rd, saved, sizeof *saved);
@@ -391,7 +391,7 @@ static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckp
   char msg[256];
   const char *diff = hv_ckpt_fingerprint_diff(saved, &here, msg, sizeof msg);
   if (diff) {
-    return hv_fail(rd->ctx, HETINV_ERROR_INVALID_ARGUMENT, rd->func, "%s was written for another run: %s", rd->name,
+    return HV_FAIL(rd->ctx, HETINV_ERROR_INVALID_ARGUMENT, "%s was written for another run: %s", rd->name,
                    diff);
   }
   return check_est_params(rd, saved->est_param);
@@ -409,8 +409,8 @@ static void reset(hetinv_optimizer_t *opt) {
 }
 
 hetinv_result_t hv_checkpoint_restore(hetinv_optimizer_t *opt, const unsigned char *data, size_t len,
-                                      const char *name, const char *func) {
-  reader_t rd = {.ctx = opt->ctx, .name = name, .func = func, .p = data, .len = len};
+                                      const char *name) {
+  reader_t rd = {.ctx = opt->ctx, .name = name, .p = data, .len = len};
   hv_optimizer_resolve_iterations(opt);
   hv_ckpt_fingerprint_t saved;
   hetinv_result_t r = read_header(&rd, opt, &saved);
@@ -432,7 +432,7 @@ hetinv_result_t hv_checkpoint_restore(hetinv_optimizer_t *opt, const unsigned ch
 
   reset(opt);
   opt->stage = (int32_t)at.stage;
-  r = hv_optimizer_alloc_stage_arrays(opt, (size_t)at.k, func);
+  r = hv_optimizer_alloc_stage_arrays(opt, (size_t)at.k);
   hetinv_medium_t *base = NULL;
   if (r == HETINV_SUCCESS) {
     get(&rd, opt->pi, opt->k * sizeof(double));
@@ -445,7 +445,7 @@ hetinv_result_t hv_checkpoint_restore(hetinv_optimizer_t *opt, const unsigned ch
   if (r == HETINV_SUCCESS) r = read_losses(&rd, opt, at.iteration);
   if (r == HETINV_SUCCESS) r = read_base(&rd, opt, &base);
   if (r == HETINV_SUCCESS && (rd.short_read || rd.at + 8 != len)) {
-    r = hv_fail(rd.ctx, HETINV_ERROR_INTERNAL, func, "%s: read %zu of %zu bytes", name, rd.at, len - 8);
+    r = HV_FAIL(rd.ctx, HETINV_ERROR_INTERNAL, "%s: read %zu of %zu bytes", name, rd.at, len - 8);
   }
   if (r != HETINV_SUCCESS) {
     reset(opt);
@@ -462,6 +462,7 @@ hetinv_result_t hv_checkpoint_restore(hetinv_optimizer_t *opt, const unsigned ch
 }
 
 HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer, const char *path) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   hetinv_optimizer_t *opt = optimizer;
   const hetinv_context_t *ctx = opt->ctx;
@@ -471,11 +472,11 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
   hv_optimizer_resolve_iterations(opt);
   unsigned char *data = NULL;
   size_t len = 0;
-  hetinv_result_t r = read_file(ctx, path, max_checkpoint_size(opt), &data, &len, __func__);
+  hetinv_result_t r = read_file(ctx, path, max_checkpoint_size(opt), &data, &len);
   if (r != HETINV_SUCCESS) return r;
   char name[1024];
   snprintf(name, sizeof name, "'%s'", path);
-  r = hv_checkpoint_restore(opt, data, len, name, __func__);
+  r = hv_checkpoint_restore(opt, data, len, name);
   hv_free(ctx, data);
   return r;
 }

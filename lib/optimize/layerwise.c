@@ -88,6 +88,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_layerwise_stages(hetinv_optimize
                                                                  double layer_thickness,
                                                                  int32_t layers,
                                                                  int32_t iterations) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
   HV_CHECK_NULL(ctx, map);

@@ -15,7 +15,7 @@
 
 hetinv_result_t hv_emitter_groups_build(const hetinv_context_t *ctx,
                                         const hetinv_measurements_t *set,
-                                        hv_emitter_groups_t *groups, const char *func) {
+                                        hv_emitter_groups_t *groups) {
   int32_t rows = set->row_count;
   int32_t *group_of = hv_calloc(ctx, (size_t)rows, sizeof(int32_t));
   const hetinv_emitter_t **first = hv_calloc(ctx, (size_t)rows, sizeof *first);
@@ -43,7 +43,7 @@ hetinv_result_t hv_emitter_groups_build(const hetinv_context_t *ctx,
   hv_free(ctx, cursor);
   if (!ok) {
     hv_emitter_groups_release(ctx, groups);
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot group %d rows by emitter", (int)rows);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot group %d rows by emitter", (int)rows);
   }
   groups->count = count;
   return HETINV_SUCCESS;
@@ -97,7 +97,7 @@ void hv_minibatch_pick(uint64_t seed, int64_t iteration, int32_t groups, int32_t
 
 hetinv_result_t hv_minibatch_set(const hetinv_optimizer_t *opt, const int32_t *picked,
                                  int32_t count, const uint8_t *value_mask,
-                                 hetinv_measurements_t **out, const char *func) {
+                                 hetinv_measurements_t **out) {
   const hetinv_measurements_t *set = opt->set;
   const hv_emitter_groups_t *groups = &opt->groups;
   hetinv_measurements_t *sub = NULL;
@@ -126,7 +126,7 @@ hetinv_result_t hv_minibatch_set(const hetinv_optimizer_t *opt, const int32_t *p
         at += len;
       }
     }
-    if (at != n) r = hv_fail(opt->ctx, HETINV_ERROR_INTERNAL, func, "minibatch layout mismatch");
+    if (at != n) r = HV_FAIL(opt->ctx, HETINV_ERROR_INTERNAL, "minibatch layout mismatch");
   }
   if (r != HETINV_SUCCESS) {
     hetinv_measurements_destroy(&sub);

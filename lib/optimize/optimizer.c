@@ -38,6 +38,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
                                                    const hetinv_measurements_t *set,
                                                    const hetinv_medium_t *initial,
                                                    hetinv_optimizer_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, out);
   *out = NULL;
   HV_CHECK_NULL(ctx, ctx);
@@ -57,7 +58,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
   opt->hi[HETINV_PARAM_G] = 0.99;
   hetinv_result_t r = hetinv_medium_clone(initial, &opt->initial);
   if (r == HETINV_SUCCESS) r = hetinv_medium_commit(opt->initial);
-  if (r == HETINV_SUCCESS) r = hv_emitter_groups_build(ctx, set, &opt->groups, __func__);
+  if (r == HETINV_SUCCESS) r = hv_emitter_groups_build(ctx, set, &opt->groups);
   if (r != HETINV_SUCCESS) {
     hetinv_optimizer_destroy(&opt);
     return r;
@@ -79,6 +80,7 @@ void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt) {
 }
 
 HETINV_API void hetinv_optimizer_destroy(hetinv_optimizer_t **optimizer) {
+  HV_API_ENTER();
   if (optimizer == NULL || *optimizer == NULL) return;
   hetinv_optimizer_t *opt = *optimizer;
   const hetinv_context_t *ctx = opt->ctx;
@@ -99,6 +101,7 @@ HETINV_API void hetinv_optimizer_destroy(hetinv_optimizer_t **optimizer) {
 
 HETINV_API hetinv_result_t hetinv_optimizer_param_bounds(hetinv_optimizer_param_t param,
                                                          double *lo, double *hi) {
+  HV_API_ENTER();
   if (param < 0 || param >= HETINV_OPTIMIZER_PARAM_COUNT_) {
     return HV_FAIL(NULL, HETINV_ERROR_OUT_OF_RANGE, "unknown optimizer parameter %d", (int)param);
   }
@@ -109,6 +112,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_param_bounds(hetinv_optimizer_param_
 
 HETINV_API hetinv_result_t hetinv_optimizer_set_param(hetinv_optimizer_t *optimizer,
                                                       hetinv_optimizer_param_t param, double value) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
   if (param < 0 || param >= HETINV_OPTIMIZER_PARAM_COUNT_) {
@@ -131,6 +135,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_set_param(hetinv_optimizer_t *optimi
 HETINV_API hetinv_result_t hetinv_optimizer_get_param(const hetinv_optimizer_t *optimizer,
                                                       hetinv_optimizer_param_t param,
                                                       double *value) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   HV_CHECK_NULL(optimizer->ctx, value);
   if (param < 0 || param >= HETINV_OPTIMIZER_PARAM_COUNT_) {
@@ -143,6 +148,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_get_param(const hetinv_optimizer_t *
 
 HETINV_API hetinv_result_t hetinv_optimizer_set_bounds(hetinv_optimizer_t *optimizer,
                                                        hetinv_param_t param, double lo, double hi) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
   if (param < 0 || param >= HETINV_PARAM_COUNT) {
@@ -179,6 +185,7 @@ static uint8_t *copy_bytes(const hetinv_context_t *ctx, const uint8_t *src, size
 
 HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimizer,
                                                       const hetinv_stage_t *stage) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
   HV_CHECK_NULL(ctx, stage);
@@ -227,6 +234,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
 
 HETINV_API hetinv_result_t hetinv_optimizer_set_progress(hetinv_optimizer_t *optimizer,
                                                          hetinv_progress_fn fn, void *user) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   optimizer->progress = fn;
   optimizer->user = user;
@@ -235,6 +243,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_set_progress(hetinv_optimizer_t *opt
 
 HETINV_API hetinv_result_t hetinv_optimizer_set_checkpoint(hetinv_optimizer_t *optimizer,
                                                            const char *path) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   char *copy = NULL;
   if (path != NULL) {
@@ -253,7 +262,7 @@ void hv_optimizer_resolve_iterations(hetinv_optimizer_t *opt) {
   }
 }
 
-hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k, const char *func) {
+hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k) {
   const hetinv_context_t *ctx = opt->ctx;
   /* Allocated before the old state is released, so that a failure leaves
    * the optimizer as it was (a failed stage change can then be retried). */
@@ -269,7 +278,7 @@ hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t 
   v[VECTORS] = hv_mul_size(k, (size_t)window, &ring_len) ? hv_calloc(ctx, ring_len, sizeof(double)) : NULL;
   if (!ok || v[VECTORS] == NULL) {
     for (int i = 0; i <= VECTORS; ++i) hv_free(ctx, v[i]);
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the state of %zu entries", k);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the state of %zu entries", k);
   }
   hv_optimizer_free_stage_arrays(opt);
   opt->window = window;
@@ -294,9 +303,9 @@ void hv_optimizer_stage_bounds(hetinv_optimizer_t *opt) {
 }
 
 /* Starts stage opt->stage: π from the base medium, projected on the box. */
-hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt, const char *func) {
+hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt) {
   const hv_stage_t *st = &opt->stages[opt->stage];
-  hetinv_result_t r = hv_optimizer_alloc_stage_arrays(opt, st->k, func);
+  hetinv_result_t r = hv_optimizer_alloc_stage_arrays(opt, st->k);
   if (r != HETINV_SUCCESS) return r;
   r = hetinv_param_map_extract(st->map, opt->base, opt->pi, opt->k);
   if (r != HETINV_SUCCESS) return r;
@@ -322,6 +331,7 @@ void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out) {
 
 HETINV_API hetinv_result_t hetinv_optimizer_get_pi(const hetinv_optimizer_t *optimizer,
                                                    int averaged, double *pi, size_t count) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
   HV_CHECK_NULL(ctx, pi);
@@ -342,6 +352,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_get_pi(const hetinv_optimizer_t *opt
 
 HETINV_API hetinv_result_t hetinv_optimizer_result(const hetinv_optimizer_t *optimizer,
                                                    hetinv_medium_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
   HV_CHECK_NULL(ctx, out);
@@ -368,6 +379,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_result(const hetinv_optimizer_t *opt
 }
 
 HETINV_API const double *hetinv_optimizer_losses(const hetinv_optimizer_t *optimizer, size_t *count) {
+  HV_API_ENTER();
   if (count) *count = optimizer ? optimizer->loss_count : 0;
   return optimizer && optimizer->loss_count ? optimizer->losses : NULL;
 }

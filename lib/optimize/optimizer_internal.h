@@ -65,10 +65,9 @@ struct hetinv_optimizer {
 /* optimizer.c */
 /* "HETINV_OPTIMIZER_DECAY", ..., for messages. */
 const char *hv_optimizer_param_name(hetinv_optimizer_param_t param);
-hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt, const char *func);
+hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt);
 void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt);
-hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k,
-                                                const char *func);
+hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k);
 void hv_optimizer_stage_bounds(hetinv_optimizer_t *opt);
 void hv_optimizer_resolve_iterations(hetinv_optimizer_t *opt);
 void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out);
@@ -76,7 +75,7 @@ void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out);
 /* minibatch.c */
 hetinv_result_t hv_emitter_groups_build(const hetinv_context_t *ctx,
                                         const hetinv_measurements_t *set,
-                                        hv_emitter_groups_t *groups, const char *func);
+                                        hv_emitter_groups_t *groups);
 void hv_emitter_groups_release(const hetinv_context_t *ctx, hv_emitter_groups_t *groups);
 /* Picks `size` distinct groups for iteration `iteration` (sorted ascending). */
 void hv_minibatch_pick(uint64_t seed, int64_t iteration, int32_t groups, int32_t size,
@@ -85,14 +84,13 @@ void hv_minibatch_pick(uint64_t seed, int64_t iteration, int32_t groups, int32_t
  * weights and mask (ANDed with value_mask when not NULL). */
 hetinv_result_t hv_minibatch_set(const hetinv_optimizer_t *opt, const int32_t *picked,
                                  int32_t count, const uint8_t *value_mask,
-                                 hetinv_measurements_t **out, const char *func);
+                                 hetinv_measurements_t **out);
 
 /* methods.c: one step of the optimizer's method on the stage's entries;
  * returns the RMS of the step relative to the scales. */
 double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen);
 
 /* checkpoint.c */
-hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path,
-                                    const char *func);
+hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path);
 
 #endif

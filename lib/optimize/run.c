@@ -17,11 +17,11 @@ static double now_seconds(void) {
 
 /* Room for one more loss, made before an iteration changes anything, so
  * that an iteration either fails with nothing recorded or is recorded whole. */
-static hetinv_result_t reserve_loss(hetinv_optimizer_t *opt, const char *func) {
+static hetinv_result_t reserve_loss(hetinv_optimizer_t *opt) {
   if (opt->loss_count < opt->loss_capacity) return HETINV_SUCCESS;
   size_t cap = opt->loss_capacity ? 2 * opt->loss_capacity : 256;
   double *grown = hv_calloc(opt->ctx, cap, sizeof(double));
-  if (grown == NULL) return hv_fail(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot grow the loss history");
+  if (grown == NULL) return HV_FAIL(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot grow the loss history");
   if (opt->loss_count) memcpy(grown, opt->losses, opt->loss_count * sizeof(double));
   hv_free(opt->ctx, opt->losses);
   opt->losses = grown;
@@ -52,9 +52,9 @@ static bool stage_done(const hetinv_optimizer_t *opt) {
  * the next, which starts. Nothing changes until everything the next stage
  * needs is allocated, so that after a failure the optimizer is where it
  * was and the next run ends the stage again. */
-static hetinv_result_t next_stage(hetinv_optimizer_t *opt, const char *func) {
+static hetinv_result_t next_stage(hetinv_optimizer_t *opt) {
   double *avg = hv_calloc(opt->ctx, opt->k, sizeof(double));
-  if (avg == NULL) return hv_fail(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate %zu entries", opt->k);
+  if (avg == NULL) return HV_FAIL(opt->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu entries", opt->k);
   hv_optimizer_average(opt, avg);
   hetinv_medium_t *base = NULL, *old = opt->base;
   hetinv_result_t r = hetinv_medium_clone(old, &base);
@@ -63,7 +63,7 @@ static hetinv_result_t next_stage(hetinv_optimizer_t *opt, const char *func) {
   if (r == HETINV_SUCCESS) {
     opt->base = base;
     ++opt->stage;
-    r = hv_optimizer_begin_stage(opt, func);
+    r = hv_optimizer_begin_stage(opt);
     if (r != HETINV_SUCCESS) {
       --opt->stage;
       opt->base = old;
@@ -80,7 +80,7 @@ static hetinv_result_t next_stage(hetinv_optimizer_t *opt, const char *func) {
 
 /* One iteration on the current stage. */
 static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est, int32_t *picked,
-                               int32_t *scratch, double *loss, double *step, const char *func) {
+                               int32_t *scratch, double *loss, double *step) {
   const hv_stage_t *st = &opt->stages[opt->stage];
   int32_t groups = opt->groups.count;
   int32_t size = (int32_t)opt->param[HETINV_OPTIMIZER_MINIBATCH];
@@ -89,7 +89,7 @@ static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est,
 
   hetinv_measurements_t *sub = NULL;
   hetinv_medium_t *medium = NULL;
-  hetinv_result_t r = hv_minibatch_set(opt, picked, size, st->value_mask, &sub, func);
+  hetinv_result_t r = hv_minibatch_set(opt, picked, size, st->value_mask, &sub);
   if (r == HETINV_SUCCESS) r = hetinv_medium_clone(opt->base, &medium);
   if (r == HETINV_SUCCESS) r = hetinv_param_map_apply(st->map, opt->pi, opt->k, medium);
   if (r == HETINV_SUCCESS) r = hetinv_medium_commit(medium);
@@ -120,14 +120,14 @@ static int64_t total_iterations(const hetinv_optimizer_t *opt) {
 }
 
 /* Starts a fresh run: stage 0 from the initial medium. */
-static hetinv_result_t start(hetinv_optimizer_t *opt, const char *func) {
+static hetinv_result_t start(hetinv_optimizer_t *opt) {
   hv_optimizer_resolve_iterations(opt);
   hetinv_result_t r = hetinv_medium_clone(opt->initial, &opt->base);
   if (r != HETINV_SUCCESS) return r;
   opt->stage = 0;
   opt->stage_iteration = opt->iteration = 0;
   opt->elapsed = 0.0;
-  r = hv_optimizer_begin_stage(opt, func);
+  r = hv_optimizer_begin_stage(opt);
   if (r != HETINV_SUCCESS) {
     hetinv_medium_destroy(&opt->base);
     return r;
@@ -137,14 +137,13 @@ static hetinv_result_t start(hetinv_optimizer_t *opt, const char *func) {
 }
 
 /* Records the estimator's tunables; a resumed run must use the same. */
-static hetinv_result_t check_estimator(hetinv_optimizer_t *opt, const hetinv_estimator_t *est,
-                                       const char *func) {
+static hetinv_result_t check_estimator(hetinv_optimizer_t *opt, const hetinv_estimator_t *est) {
   for (int p = 0; p < HETINV_ESTIMATOR_PARAM_COUNT_; ++p) {
     double v = 0.0;
     hetinv_estimator_get_param(est, p, &v);
     if (p == HETINV_ESTIMATOR_EPOCH) v = 0.0;
     if (opt->verify_est_param && v != opt->est_param[p]) {
-      return hv_fail(opt->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+      return HV_FAIL(opt->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "the estimator's %s is %.17g; the checkpointed run used %.17g",
                      hv_estimator_param_name(p), v, opt->est_param[p]);
     }
@@ -158,6 +157,7 @@ static hetinv_result_t check_estimator(hetinv_optimizer_t *opt, const hetinv_est
 HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
                                                 hetinv_estimator_t *estimator,
                                                 hetinv_stop_reason_t *reason) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   hetinv_optimizer_t *opt = optimizer;
   const hetinv_context_t *ctx = opt->ctx;
@@ -166,10 +166,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
   if (opt->stage_count == 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "the schedule has no stage: call hetinv_optimizer_add_stage() first");
   }
-  hetinv_result_t r = opt->started ? HETINV_SUCCESS : start(opt, __func__);
+  hetinv_result_t r = opt->started ? HETINV_SUCCESS : start(opt);
   if (r != HETINV_SUCCESS) return r;
 
-  r = check_estimator(opt, estimator, __func__);
+  r = check_estimator(opt, estimator);
   if (r != HETINV_SUCCESS) return r;
   double epoch = 0.0;
   hetinv_estimator_get_param(estimator, HETINV_ESTIMATOR_EPOCH, &epoch);
@@ -187,7 +187,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
         why = HETINV_STOP_COMPLETED;
         break;
       }
-      r = next_stage(opt, __func__);
+      r = next_stage(opt);
       continue;
     }
     if (budget > 0.0 && opt->elapsed >= budget) {
@@ -195,15 +195,15 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
       break;
     }
     double t0 = now_seconds(), loss = 0.0, step = 0.0;
-    r = reserve_loss(opt, __func__);
-    if (r == HETINV_SUCCESS) r = iterate(opt, estimator, picked, scratch, &loss, &step, __func__);
+    r = reserve_loss(opt);
+    if (r == HETINV_SUCCESS) r = iterate(opt, estimator, picked, scratch, &loss, &step);
     if (r != HETINV_SUCCESS) break;
     opt->elapsed += now_seconds() - t0;
     ++opt->stage_iteration;
     ++opt->iteration;
     opt->losses[opt->loss_count++] = loss;
     if (opt->checkpoint_path && opt->iteration % interval == 0) {
-      r = hv_checkpoint_write(opt, opt->checkpoint_path, __func__);
+      r = hv_checkpoint_write(opt, opt->checkpoint_path);
     }
     if (r == HETINV_SUCCESS && opt->progress) {
       hetinv_progress_t p = {
@@ -218,10 +218,12 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
           .step = step,
           .elapsed = opt->elapsed,
       };
+      const char *entry = hv_api_suspend();
       if (opt->progress(&p, opt->user) != 0) why = HETINV_STOP_CALLBACK;
+      hv_api_resume(entry);
     }
   }
-  if (r == HETINV_SUCCESS && opt->checkpoint_path) r = hv_checkpoint_write(opt, opt->checkpoint_path, __func__);
+  if (r == HETINV_SUCCESS && opt->checkpoint_path) r = hv_checkpoint_write(opt, opt->checkpoint_path);
   hetinv_estimator_set_param(estimator, HETINV_ESTIMATOR_EPOCH, epoch);
   hv_free(ctx, picked);
   hv_free(ctx, scratch);

@@ -26,6 +26,7 @@ struct hetinv_param_map {
 };
 
 HETINV_API void hetinv_param_map_destroy(hetinv_param_map_t **map) {
+  HV_API_ENTER();
   if (map == NULL || *map == NULL) return;
   hetinv_param_map_t *m = *map;
   for (int a = 0; a < 3; ++a) {
@@ -38,17 +39,17 @@ HETINV_API void hetinv_param_map_destroy(hetinv_param_map_t **map) {
 }
 
 /* kind: 'i' identity, 'c' coarse, 'b' broadcast along `bcast_axis`. */
-static hetinv_result_t create(const hetinv_medium_t *medium, const char *func, char kind,
+static hetinv_result_t create(const hetinv_medium_t *medium, char kind,
                               const int32_t coarse[3], int32_t bcast_axis, uint32_t free_mask,
                               hetinv_param_map_t **out) {
   hetinv_context_t *ctx = medium->ctx;
   if (free_mask == 0 || (free_mask & ~(uint32_t)HETINV_FREE_ALL) != 0) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "free_mask is 0x%x; it must be a non-empty combination of HETINV_FREE(HETINV_PARAM_*) bits",
                    (unsigned)free_mask);
   }
   hetinv_param_map_t *m = hv_calloc(ctx, 1, sizeof *m);
-  if (m == NULL) return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate a map");
+  if (m == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate a map");
   m->ctx = ctx;
   m->free_mask = free_mask;
   for (hetinv_param_t p = 0; p < HETINV_PARAM_COUNT; ++p) {
@@ -67,7 +68,7 @@ static hetinv_result_t create(const hetinv_medium_t *medium, const char *func, c
     am->w_hi = hv_calloc(ctx, (size_t)n, sizeof(double));
     if (!am->lo || !am->hi || !am->w_hi) {
       hetinv_param_map_destroy(&m);
-      return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate a map");
+      return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate a map");
     }
     int32_t nc = m->cells[a];
     for (int32_t v = 0; v < n; ++v) {
@@ -92,16 +93,18 @@ static hetinv_result_t create(const hetinv_medium_t *medium, const char *func, c
 HETINV_API hetinv_result_t hetinv_param_map_create_identity(const hetinv_medium_t *medium,
                                                             uint32_t free_mask,
                                                             hetinv_param_map_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
-  return create(medium, __func__, 'i', NULL, -1, free_mask, out);
+  return create(medium, 'i', NULL, -1, free_mask, out);
 }
 
 HETINV_API hetinv_result_t hetinv_param_map_create_coarse(const hetinv_medium_t *medium,
                                                           const int32_t coarse_dims[3],
                                                           uint32_t free_mask,
                                                           hetinv_param_map_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
@@ -113,30 +116,34 @@ HETINV_API hetinv_result_t hetinv_param_map_create_coarse(const hetinv_medium_t 
                      (int)coarse_dims[a], (int)medium->dims[a]);
     }
   }
-  return create(medium, __func__, 'c', coarse_dims, -1, free_mask, out);
+  return create(medium, 'c', coarse_dims, -1, free_mask, out);
 }
 
 HETINV_API hetinv_result_t hetinv_param_map_create_broadcast(const hetinv_medium_t *medium,
                                                              int32_t axis, uint32_t free_mask,
                                                              hetinv_param_map_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
   if (axis < 0 || axis > 2) {
     return HV_FAIL(medium->ctx, HETINV_ERROR_OUT_OF_RANGE, "axis is %d; it must be 0, 1 or 2", (int)axis);
   }
-  return create(medium, __func__, 'b', NULL, axis, free_mask, out);
+  return create(medium, 'b', NULL, axis, free_mask, out);
 }
 
 HETINV_API size_t hetinv_param_map_size(const hetinv_param_map_t *map) {
+  HV_API_ENTER();
   return map ? map->cell_count * (size_t)map->free_count : 0;
 }
 
 HETINV_API uint32_t hetinv_param_map_free_mask(const hetinv_param_map_t *map) {
+  HV_API_ENTER();
   return map ? map->free_mask : 0;
 }
 
 HETINV_API hetinv_result_t hetinv_param_map_get_dims(const hetinv_param_map_t *map, int32_t dims[3]) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, map);
   HV_CHECK_NULL(map->ctx, dims);
   memcpy(dims, map->cells, sizeof map->cells);
@@ -145,6 +152,7 @@ HETINV_API hetinv_result_t hetinv_param_map_get_dims(const hetinv_param_map_t *m
 
 HETINV_API hetinv_result_t hetinv_param_map_entry(const hetinv_param_map_t *map, size_t index,
                                                   hetinv_param_t *param, size_t *cell) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, map);
   if (index >= hetinv_param_map_size(map)) {
     return HV_FAIL(map->ctx, HETINV_ERROR_OUT_OF_RANGE, "index %zu is beyond the map's %zu entries",
@@ -180,10 +188,9 @@ bool hv_param_map_fits(const hetinv_param_map_t *map, const hetinv_medium_t *med
   return memcmp(map->fine, medium->dims, sizeof map->fine) == 0;
 }
 
-static hetinv_result_t check_grid(const hetinv_param_map_t *map, const hetinv_medium_t *medium,
-                                  const char *func) {
+static hetinv_result_t check_grid(const hetinv_param_map_t *map, const hetinv_medium_t *medium) {
   if (!hv_param_map_fits(map, medium)) {
-    return hv_fail(map->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(map->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the medium's grid is %d x %d x %d; the map was made for %d x %d x %d",
                    (int)medium->dims[0], (int)medium->dims[1], (int)medium->dims[2],
                    (int)map->fine[0], (int)map->fine[1], (int)map->fine[2]);
@@ -191,9 +198,9 @@ static hetinv_result_t check_grid(const hetinv_param_map_t *map, const hetinv_me
   return HETINV_SUCCESS;
 }
 
-static hetinv_result_t check_count(const hetinv_param_map_t *map, size_t count, const char *func) {
+static hetinv_result_t check_count(const hetinv_param_map_t *map, size_t count) {
   if (count != hetinv_param_map_size(map)) {
-    return hv_fail(map->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(map->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "count is %zu; the map has %zu entries", count, hetinv_param_map_size(map));
   }
   return HETINV_SUCCESS;
@@ -201,11 +208,12 @@ static hetinv_result_t check_count(const hetinv_param_map_t *map, size_t count, 
 
 HETINV_API hetinv_result_t hetinv_param_map_apply(const hetinv_param_map_t *map, const double *pi,
                                                   size_t count, hetinv_medium_t *medium) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, map);
   HV_CHECK_NULL(map->ctx, pi);
   HV_CHECK_NULL(map->ctx, medium);
-  hetinv_result_t r = check_count(map, count, __func__);
-  if (r == HETINV_SUCCESS) r = check_grid(map, medium, __func__);
+  hetinv_result_t r = check_count(map, count);
+  if (r == HETINV_SUCCESS) r = check_grid(map, medium);
   if (r != HETINV_SUCCESS) return r;
   if (medium->committed) {
     return HV_FAIL(map->ctx, HETINV_ERROR_INVALID_STATE, "the medium is committed; apply to a clone");
@@ -222,7 +230,7 @@ HETINV_API hetinv_result_t hetinv_param_map_apply(const hetinv_param_map_t *map,
             double v = 0.0;
             FOR_EACH_CELL(map, x, y, z, { v += weight * block[cell]; })
             if (pass == 0) {
-              r = hv_medium_check_voxel_value(medium, __func__, p, k, v);
+              r = hv_medium_check_voxel_value(medium, p, k, v);
               if (r != HETINV_SUCCESS) return r;
             } else {
               medium->values[p][k] = v;
@@ -280,11 +288,12 @@ static bool pull(const hetinv_param_map_t *map, const double *const in[HETINV_PA
 HETINV_API hetinv_result_t hetinv_param_map_extract(const hetinv_param_map_t *map,
                                                     const hetinv_medium_t *medium, double *pi,
                                                     size_t count) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, map);
   HV_CHECK_NULL(map->ctx, medium);
   HV_CHECK_NULL(map->ctx, pi);
-  hetinv_result_t r = check_count(map, count, __func__);
-  if (r == HETINV_SUCCESS) r = check_grid(map, medium, __func__);
+  hetinv_result_t r = check_count(map, count);
+  if (r == HETINV_SUCCESS) r = check_grid(map, medium);
   if (r != HETINV_SUCCESS) return r;
   const double *in[HETINV_PARAM_COUNT] = {medium->values[0], medium->values[1], medium->values[2]};
   if (!pull(map, in, pi, true)) return HV_FAIL(map->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate");
@@ -294,10 +303,11 @@ HETINV_API hetinv_result_t hetinv_param_map_extract(const hetinv_param_map_t *ma
 HETINV_API hetinv_result_t hetinv_param_map_pullback(const hetinv_param_map_t *map,
                                                      const double *voxel_grad, double *pi_grad,
                                                      size_t count) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, map);
   HV_CHECK_NULL(map->ctx, voxel_grad);
   HV_CHECK_NULL(map->ctx, pi_grad);
-  hetinv_result_t r = check_count(map, count, __func__);
+  hetinv_result_t r = check_count(map, count);
   if (r != HETINV_SUCCESS) return r;
   const double *in[HETINV_PARAM_COUNT] = {voxel_grad, voxel_grad + map->voxel_count,
                                           voxel_grad + 2 * map->voxel_count};

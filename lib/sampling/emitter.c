@@ -8,10 +8,10 @@
 #include "medium/phase.h"
 #include "sampling/emitter_internal.h"
 
-static hetinv_result_t new_emitter(const hetinv_medium_t *medium, const char *func,
+static hetinv_result_t new_emitter(const hetinv_medium_t *medium,
                                    hv_emitter_kind_t kind, hetinv_emitter_t **out) {
   hetinv_emitter_t *e = hv_calloc(medium->ctx, 1, sizeof *e);
-  if (e == NULL) return hv_fail(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate an emitter");
+  if (e == NULL) return HV_FAIL(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate an emitter");
   e->ctx = medium->ctx;
   hv_geometry_of(medium, &e->geo);
   e->kind = kind;
@@ -21,6 +21,7 @@ static hetinv_result_t new_emitter(const hetinv_medium_t *medium, const char *fu
 }
 
 HETINV_API void hetinv_emitter_destroy(hetinv_emitter_t **emitter) {
+  HV_API_ENTER();
   if (emitter == NULL || *emitter == NULL) return;
   hetinv_emitter_t *e = *emitter;
   hv_free(e->ctx, e->points);
@@ -32,29 +33,29 @@ HETINV_API void hetinv_emitter_destroy(hetinv_emitter_t **emitter) {
 }
 
 /* Entry point and face of beam (origin, direction); fails naming the beam. */
-static hetinv_result_t place_beam(const hetinv_emitter_t *e, const char *func, int32_t index,
+static hetinv_result_t place_beam(const hetinv_emitter_t *e, int32_t index,
                                   const double origin[3], const double direction[3],
                                   double point[3], hetinv_face_t *face, double unit[3]) {
   char what[64], which[32] = "";
   if (index >= 0) snprintf(which, sizeof which, " of source %d", (int)index);
   snprintf(what, sizeof what, "direction%s", which);
-  hetinv_result_t r = hv_normalize3(e->ctx, func, what, direction, unit);
+  hetinv_result_t r = hv_normalize3(e->ctx, what, direction, unit);
   if (r != HETINV_SUCCESS) return r;
   if (!isfinite(origin[0]) || !isfinite(origin[1]) || !isfinite(origin[2])) {
-    return hv_fail(e->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(e->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "origin%s is (%g, %g, %g); it must be finite", which, origin[0], origin[1],
                    origin[2]);
   }
   bool inside = true;
   for (int a = 0; a < 3; ++a) inside = inside && origin[a] > e->geo.lo[a] && origin[a] < e->geo.hi[a];
   if (inside) {
-    return hv_fail(e->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(e->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "origin%s (%g, %g, %g) is inside the box; light must come from outside "
                    "or from the boundary", which, origin[0], origin[1], origin[2]);
   }
   double t;
   if (!hv_ray_enter_box(&e->geo, origin, unit, &t, face)) {
-    return hv_fail(e->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(e->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the beam%s from (%g, %g, %g) along (%g, %g, %g) misses the box "
                    "[%g, %g] x [%g, %g] x [%g, %g]", which, origin[0], origin[1], origin[2],
                    direction[0], direction[1], direction[2], e->geo.lo[0], e->geo.hi[0],
@@ -69,14 +70,14 @@ static hetinv_result_t place_beam(const hetinv_emitter_t *e, const char *func, i
 }
 
 /* Allocates the beam arrays of an ideal or combination emitter. */
-static hetinv_result_t alloc_beams(hetinv_emitter_t *e, const char *func, int32_t count) {
+static hetinv_result_t alloc_beams(hetinv_emitter_t *e, int32_t count) {
   e->count = count;
   e->points = hv_calloc(e->ctx, (size_t)count * 3, sizeof(double));
   e->directions = hv_calloc(e->ctx, (size_t)count * 3, sizeof(double));
   e->faces = hv_calloc(e->ctx, (size_t)count, sizeof(hetinv_face_t));
   e->cdf = hv_calloc(e->ctx, (size_t)count, sizeof(double));
   if (!e->points || !e->directions || !e->faces || !e->cdf) {
-    return hv_fail(e->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate %d sources", (int)count);
+    return HV_FAIL(e->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %d sources", (int)count);
   }
   return HETINV_SUCCESS;
 }
@@ -85,15 +86,16 @@ HETINV_API hetinv_result_t hetinv_emitter_create_ideal(const hetinv_medium_t *me
                                                        const double origin[3],
                                                        const double direction[3],
                                                        hetinv_emitter_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
   HV_CHECK_NULL(medium->ctx, origin);
   HV_CHECK_NULL(medium->ctx, direction);
   hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
-  hetinv_result_t r = new_emitter(medium, __func__, HV_EMITTER_IDEAL, &e);
-  if (r == HETINV_SUCCESS) r = alloc_beams(e, __func__, 1);
-  if (r == HETINV_SUCCESS) r = place_beam(e, __func__, -1, origin, direction, e->points, e->faces, e->directions);
+  hetinv_result_t r = new_emitter(medium, HV_EMITTER_IDEAL, &e);
+  if (r == HETINV_SUCCESS) r = alloc_beams(e, 1);
+  if (r == HETINV_SUCCESS) r = place_beam(e, -1, origin, direction, e->points, e->faces, e->directions);
   if (r != HETINV_SUCCESS) {
     hetinv_emitter_destroy(&e);
     return r;
@@ -104,19 +106,19 @@ HETINV_API hetinv_result_t hetinv_emitter_create_ideal(const hetinv_medium_t *me
 }
 
 /* Normalises @p w (n weights ≥ 0, not all 0) into a cumulative distribution. */
-static hetinv_result_t build_cdf(hetinv_emitter_t *e, const char *func, const char *what,
+static hetinv_result_t build_cdf(hetinv_emitter_t *e, const char *what,
                                  const double *w, int32_t n, double *total) {
   double sum = 0.0;
   for (int32_t i = 0; i < n; ++i) {
     if (!isfinite(w[i]) || w[i] < 0.0) {
-      return hv_fail(e->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+      return HV_FAIL(e->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "%s[%d] is %g; it must be finite and >= 0", what, (int)i, w[i]);
     }
     sum += w[i];
     e->cdf[i] = sum;
   }
   if (!(sum > 0.0) || !isfinite(sum)) {
-    return hv_fail(e->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(e->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the %d values of %s sum to %g; they must have a finite positive sum", (int)n,
                    what, sum);
   }
@@ -131,6 +133,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_combination(const hetinv_medium
                                                              const double *directions,
                                                              const double *weights,
                                                              hetinv_emitter_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
@@ -146,13 +149,13 @@ HETINV_API hetinv_result_t hetinv_emitter_create_combination(const hetinv_medium
                    (long)HETINV_MAX_COMBINATION_SOURCES);
   }
   hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
-  hetinv_result_t r = new_emitter(medium, __func__, HV_EMITTER_COMBINATION, &e);
-  if (r == HETINV_SUCCESS) r = alloc_beams(e, __func__, count);
+  hetinv_result_t r = new_emitter(medium, HV_EMITTER_COMBINATION, &e);
+  if (r == HETINV_SUCCESS) r = alloc_beams(e, count);
   for (int32_t i = 0; r == HETINV_SUCCESS && i < count; ++i) {
-    r = place_beam(e, __func__, i, origins + 3 * i, directions + 3 * i, e->points + 3 * i,
+    r = place_beam(e, i, origins + 3 * i, directions + 3 * i, e->points + 3 * i,
                    e->faces + i, e->directions + 3 * i);
   }
-  if (r == HETINV_SUCCESS) r = build_cdf(e, __func__, "weights", weights, count, &e->power);
+  if (r == HETINV_SUCCESS) r = build_cdf(e, "weights", weights, count, &e->power);
   if (r != HETINV_SUCCESS) {
     hetinv_emitter_destroy(&e);
     return r;
@@ -163,7 +166,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_combination(const hetinv_medium
 
 /* Checks that a face rectangle [lo, hi] (or a point, lo == hi allowed when
  * @p point) lies on face f of the box. */
-static hetinv_result_t check_on_face(const hetinv_emitter_t *e, const char *func, hetinv_face_t f,
+static hetinv_result_t check_on_face(const hetinv_emitter_t *e, hetinv_face_t f,
                                      const double lo[2], const double hi[2], bool point) {
   int ax[2];
   hv_face_uv_axes(f, &ax[0], &ax[1]);
@@ -172,7 +175,7 @@ static hetinv_result_t check_on_face(const hetinv_emitter_t *e, const char *func
     bool ok = isfinite(lo[i]) && isfinite(hi[i]) && lo[i] >= a && hi[i] <= b &&
               (point ? lo[i] <= hi[i] : lo[i] < hi[i]);
     if (!ok) {
-      return hv_fail(e->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+      return HV_FAIL(e->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "%s coordinate %c is [%g, %g]; it must lie within the face's [%g, %g]%s",
                      point ? "point" : "rectangle", "xyz"[ax[i]], lo[i], hi[i], a, b,
                      point ? "" : " with min < max");
@@ -185,6 +188,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_area(
     const hetinv_medium_t *medium, hetinv_face_t face, const double direction[3],
     const double rect_min[2], const double rect_max[2], int32_t pattern_width,
     int32_t pattern_height, const double *pattern, hetinv_emitter_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
@@ -192,7 +196,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_area(
   HV_CHECK_NULL(ctx, direction);
   HV_CHECK_NULL(ctx, rect_min);
   HV_CHECK_NULL(ctx, rect_max);
-  hetinv_result_t r = hv_check_face(ctx, __func__, face);
+  hetinv_result_t r = hv_check_face(ctx, face);
   if (r != HETINV_SUCCESS) return r;
   if (pattern_width <= 0 || pattern_height <= 0 ||
       (int64_t)pattern_width * pattern_height > HETINV_MAX_PATTERN_CELLS) {
@@ -202,7 +206,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_area(
                    (int)pattern_width, (int)pattern_height, (long)HETINV_MAX_PATTERN_CELLS);
   }
   hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
-  r = new_emitter(medium, __func__, HV_EMITTER_AREA, &e);
+  r = new_emitter(medium, HV_EMITTER_AREA, &e);
   if (r != HETINV_SUCCESS) return r;
   e->face = face;
   e->pattern_width = pattern_width;
@@ -210,13 +214,13 @@ HETINV_API hetinv_result_t hetinv_emitter_create_area(
   e->count = pattern_width * pattern_height;
   memcpy(e->rect_min, rect_min, sizeof e->rect_min);
   memcpy(e->rect_max, rect_max, sizeof e->rect_max);
-  r = hv_normalize3(ctx, __func__, "direction", direction, e->direction);
+  r = hv_normalize3(ctx, "direction", direction, e->direction);
   if (r == HETINV_SUCCESS && e->direction[hv_face_axis(face)] * hv_face_sign(face) >= 0.0) {
     r = HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                 "direction (%g, %g, %g) does not point into face %d", direction[0], direction[1],
                 direction[2], (int)face);
   }
-  if (r == HETINV_SUCCESS) r = check_on_face(e, __func__, face, rect_min, rect_max, false);
+  if (r == HETINV_SUCCESS) r = check_on_face(e, face, rect_min, rect_max, false);
   if (r == HETINV_SUCCESS) {
     e->cdf = hv_calloc(ctx, (size_t)e->count, sizeof(double));
     if (e->cdf == NULL) r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the pattern");
@@ -224,7 +228,7 @@ HETINV_API hetinv_result_t hetinv_emitter_create_area(
   if (r == HETINV_SUCCESS) {
     if (pattern != NULL) {
       double total;
-      r = build_cdf(e, __func__, "pattern", pattern, e->count, &total);
+      r = build_cdf(e, "pattern", pattern, e->count, &total);
     } else {
       for (int32_t i = 0; i < e->count; ++i) e->cdf[i] = (double)(i + 1) / e->count;
     }
@@ -241,19 +245,20 @@ HETINV_API hetinv_result_t hetinv_emitter_create_diffuse(const hetinv_medium_t *
                                                          hetinv_face_t face,
                                                          const double point[2],
                                                          hetinv_emitter_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
   HV_CHECK_NULL(medium->ctx, point);
-  hetinv_result_t r = hv_check_face(medium->ctx, __func__, face);
+  hetinv_result_t r = hv_check_face(medium->ctx, face);
   if (r != HETINV_SUCCESS) return r;
   hetinv_emitter_t *e = NULL; /* destroyed on every error path, so never uninitialised */
-  r = new_emitter(medium, __func__, HV_EMITTER_DIFFUSE, &e);
+  r = new_emitter(medium, HV_EMITTER_DIFFUSE, &e);
   if (r != HETINV_SUCCESS) return r;
   e->face = face;
   memcpy(e->rect_min, point, sizeof e->rect_min);
   memcpy(e->rect_max, point, sizeof e->rect_max);
-  r = check_on_face(e, __func__, face, point, point, true);
+  r = check_on_face(e, face, point, point, true);
   if (r != HETINV_SUCCESS) {
     hetinv_emitter_destroy(&e);
     return r;

@@ -12,19 +12,19 @@ void hv_geometry_of(const hetinv_medium_t *medium, hv_geometry_t *out) {
   out->eta_out = medium->eta_out;
 }
 
-hetinv_result_t hv_check_face(const hetinv_context_t *ctx, const char *func, hetinv_face_t face) {
+hetinv_result_t hv_check_face(const hetinv_context_t *ctx, hetinv_face_t face) {
   if (face >= HETINV_FACE_X_MIN && face <= HETINV_FACE_Z_MAX) return HETINV_SUCCESS;
-  return hv_fail(ctx, HETINV_ERROR_OUT_OF_RANGE, func,
+  return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_RANGE,
                  "face is %d; it must be one of HETINV_FACE_X_MIN (0) .. HETINV_FACE_Z_MAX (5)",
                  (int)face);
 }
 
-hetinv_result_t hv_normalize3(const hetinv_context_t *ctx, const char *func, const char *what,
+hetinv_result_t hv_normalize3(const hetinv_context_t *ctx, const char *what,
                               const double in[3], double out[3]) {
   /* Scaled by the largest component first, so that no length over- or underflows. */
   double m = fmax(fabs(in[0]), fmax(fabs(in[1]), fabs(in[2])));
   if (!isfinite(in[0]) || !isfinite(in[1]) || !isfinite(in[2]) || !(m > 0.0)) {
-    return hv_fail(ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "%s is (%g, %g, %g); it must be finite and not zero", what, in[0], in[1],
                    in[2]);
   }

@@ -41,11 +41,11 @@ static inline void hv_face_normal(hetinv_face_t f, double n[3]) {
   n[f >> 1] = hv_face_sign(f);
 }
 
-/* Checks a face id; on failure records a message for @p func. */
-hetinv_result_t hv_check_face(const hetinv_context_t *ctx, const char *func, hetinv_face_t face);
+/* Checks a face id; fails with a message otherwise. */
+hetinv_result_t hv_check_face(const hetinv_context_t *ctx, hetinv_face_t face);
 
 /* Normalises a finite non-zero 3-vector named @p what; fails with a message otherwise. */
-hetinv_result_t hv_normalize3(const hetinv_context_t *ctx, const char *func, const char *what,
+hetinv_result_t hv_normalize3(const hetinv_context_t *ctx, const char *what,
                               const double in[3], double out[3]);
 
 /* Entry of the ray o + t·d (t ≥ 0) into the box: the smallest t at which it

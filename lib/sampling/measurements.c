@@ -10,6 +10,7 @@
 
 HETINV_API hetinv_result_t hetinv_measurements_create(hetinv_context_t *ctx,
                                                       hetinv_measurements_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, out);
   *out = NULL;
   HV_CHECK_NULL(ctx, ctx);
@@ -28,6 +29,7 @@ static void free_arrays(hetinv_measurements_t *m) {
 }
 
 HETINV_API void hetinv_measurements_destroy(hetinv_measurements_t **set) {
+  HV_API_ENTER();
   if (set == NULL || *set == NULL) return;
   hetinv_measurements_t *m = *set;
   free_arrays(m);
@@ -67,6 +69,7 @@ HETINV_API hetinv_result_t hetinv_measurements_add(hetinv_measurements_t *set,
                                                    const hetinv_sensor_t *sensor,
                                                    const hetinv_pathlength_t *pathlength,
                                                    int32_t *row) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
   HV_CHECK_NULL(set->ctx, emitter);
   HV_CHECK_NULL(set->ctx, sensor);
@@ -119,16 +122,19 @@ HETINV_API hetinv_result_t hetinv_measurements_add(hetinv_measurements_t *set,
 }
 
 HETINV_API int32_t hetinv_measurements_row_count(const hetinv_measurements_t *set) {
+  HV_API_ENTER();
   return set ? set->row_count : 0;
 }
 
 HETINV_API size_t hetinv_measurements_value_count(const hetinv_measurements_t *set) {
+  HV_API_ENTER();
   return set ? set->value_count : 0;
 }
 
 HETINV_API hetinv_result_t hetinv_measurements_row_layout(const hetinv_measurements_t *set,
                                                           int32_t row, size_t *offset,
                                                           int32_t *pixels, int32_t *bins) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
   if (row < 0 || row >= set->row_count) {
     return HV_FAIL(set->ctx, HETINV_ERROR_OUT_OF_RANGE, "row %d does not exist; the set has %d rows",
@@ -152,17 +158,17 @@ static void locate(const hetinv_measurements_t *m, size_t i, int *row, int *pixe
 }
 
 /* Checks count and that every value is finite (and ≥ 0 if @p nonneg). */
-static hetinv_result_t check_array(const hetinv_measurements_t *m, const char *func,
+static hetinv_result_t check_array(const hetinv_measurements_t *m,
                                    const char *what, const double *a, size_t count, bool nonneg) {
   if (count != m->value_count) {
-    return hv_fail(m->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(m->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "count is %zu; the set has %zu values", count, m->value_count);
   }
   for (size_t i = 0; i < count; ++i) {
     if (!isfinite(a[i]) || (nonneg && a[i] < 0.0)) {
       int row, pixel, bin;
       locate(m, i, &row, &pixel, &bin);
-      return hv_fail(m->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+      return HV_FAIL(m->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "%s[%zu] (row %d, pixel %d, bin %d) is %g; it must be finite%s", what, i,
                      row, pixel, bin, a[i], nonneg ? " and >= 0" : "");
     }
@@ -173,10 +179,11 @@ static hetinv_result_t check_array(const hetinv_measurements_t *m, const char *f
 HETINV_API hetinv_result_t hetinv_measurements_set_values(hetinv_measurements_t *set,
                                                           const double *values,
                                                           const double *std_errors, size_t count) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
   HV_CHECK_NULL(set->ctx, values);
-  hetinv_result_t r = check_array(set, __func__, "values", values, count, false);
-  if (r == HETINV_SUCCESS && std_errors) r = check_array(set, __func__, "std_errors", std_errors, count, true);
+  hetinv_result_t r = check_array(set, "values", values, count, false);
+  if (r == HETINV_SUCCESS && std_errors) r = check_array(set, "std_errors", std_errors, count, true);
   if (r != HETINV_SUCCESS || count == 0) return r;
   memcpy(set->values, values, count * sizeof(double));
   if (std_errors) {
@@ -189,15 +196,17 @@ HETINV_API hetinv_result_t hetinv_measurements_set_values(hetinv_measurements_t 
 
 HETINV_API hetinv_result_t hetinv_measurements_set_weights(hetinv_measurements_t *set,
                                                            const double *weights, size_t count) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
   HV_CHECK_NULL(set->ctx, weights);
-  hetinv_result_t r = check_array(set, __func__, "weights", weights, count, true);
+  hetinv_result_t r = check_array(set, "weights", weights, count, true);
   if (r == HETINV_SUCCESS && count > 0) memcpy(set->weights, weights, count * sizeof(double));
   return r;
 }
 
 HETINV_API hetinv_result_t hetinv_measurements_set_mask(hetinv_measurements_t *set,
                                                         const uint8_t *mask, size_t count) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
   HV_CHECK_NULL(set->ctx, mask);
   if (count != set->value_count) {
@@ -209,14 +218,18 @@ HETINV_API hetinv_result_t hetinv_measurements_set_mask(hetinv_measurements_t *s
 }
 
 HETINV_API const double *hetinv_measurements_values(const hetinv_measurements_t *set) {
+  HV_API_ENTER();
   return set && set->value_count ? set->values : NULL;
 }
 HETINV_API const double *hetinv_measurements_std_errors(const hetinv_measurements_t *set) {
+  HV_API_ENTER();
   return set && set->value_count ? set->std_errors : NULL;
 }
 HETINV_API const double *hetinv_measurements_weights(const hetinv_measurements_t *set) {
+  HV_API_ENTER();
   return set && set->value_count ? set->weights : NULL;
 }
 HETINV_API const uint8_t *hetinv_measurements_mask(const hetinv_measurements_t *set) {
+  HV_API_ENTER();
   return set && set->value_count ? set->mask : NULL;
 }

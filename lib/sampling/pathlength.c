@@ -9,6 +9,7 @@
 #define HV_GAUSSIAN_REACH_SIGMAS 8.0
 
 HETINV_API void hetinv_pathlength_destroy(hetinv_pathlength_t **pathlength) {
+  HV_API_ENTER();
   if (pathlength == NULL || *pathlength == NULL) return;
   hetinv_pathlength_t *p = *pathlength;
   hv_free(p->ctx, p->sorted);
@@ -19,6 +20,7 @@ HETINV_API void hetinv_pathlength_destroy(hetinv_pathlength_t **pathlength) {
 
 HETINV_API hetinv_result_t hetinv_pathlength_create_steady(hetinv_context_t *ctx,
                                                            hetinv_pathlength_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, out);
   *out = NULL;
   HV_CHECK_NULL(ctx, ctx);
@@ -50,6 +52,7 @@ HETINV_API hetinv_result_t hetinv_pathlength_create_bins(hetinv_context_t *ctx,
                                                          hetinv_window_t window, int32_t count,
                                                          const double *centres, double width,
                                                          hetinv_pathlength_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(ctx, out);
   *out = NULL;
   HV_CHECK_NULL(ctx, ctx);
@@ -100,5 +103,6 @@ HETINV_API hetinv_result_t hetinv_pathlength_create_bins(hetinv_context_t *ctx,
 }
 
 HETINV_API int32_t hetinv_pathlength_bin_count(const hetinv_pathlength_t *pathlength) {
+  HV_API_ENTER();
   return pathlength ? pathlength->count : 0;
 }

@@ -8,18 +8,19 @@
 #include "sampling/sensor_internal.h"
 
 HETINV_API void hetinv_sensor_destroy(hetinv_sensor_t **sensor) {
+  HV_API_ENTER();
   if (sensor == NULL || *sensor == NULL) return;
   hv_free((*sensor)->ctx, *sensor);
   *sensor = NULL;
 }
 
-static hetinv_result_t new_sensor(const hetinv_medium_t *medium, const char *func,
+static hetinv_result_t new_sensor(const hetinv_medium_t *medium,
                                   hv_sensor_kind_t kind, hetinv_face_t face,
                                   hetinv_sensor_t **out) {
-  hetinv_result_t r = hv_check_face(medium->ctx, func, face);
+  hetinv_result_t r = hv_check_face(medium->ctx, face);
   if (r != HETINV_SUCCESS) return r;
   hetinv_sensor_t *s = hv_calloc(medium->ctx, 1, sizeof *s);
-  if (s == NULL) return hv_fail(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate a sensor");
+  if (s == NULL) return HV_FAIL(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate a sensor");
   s->ctx = medium->ctx;
   hv_geometry_of(medium, &s->geo);
   s->kind = kind;
@@ -30,14 +31,14 @@ static hetinv_result_t new_sensor(const hetinv_medium_t *medium, const char *fun
 
 /* The interior direction that refracts into s->dir_out, and the factors of
  * a next-event connection along it. */
-static hetinv_result_t set_direction(hetinv_sensor_t *s, const char *func, const double d[3]) {
-  hetinv_result_t r = hv_normalize3(s->ctx, func, "direction", d, s->dir_out);
+static hetinv_result_t set_direction(hetinv_sensor_t *s, const double d[3]) {
+  hetinv_result_t r = hv_normalize3(s->ctx, "direction", d, s->dir_out);
   if (r != HETINV_SUCCESS) return r;
   double n[3];
   hv_face_normal(s->face, n);
   double cos_out = s->dir_out[hv_face_axis(s->face)] * hv_face_sign(s->face);
   if (!(cos_out > 0.0)) {
-    return hv_fail(s->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(s->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "direction (%g, %g, %g) points %s face %d; it must point away from the medium",
                    d[0], d[1], d[2], cos_out == 0.0 ? "along" : "into the medium through",
                    (int)s->face);
@@ -45,7 +46,7 @@ static hetinv_result_t set_direction(hetinv_sensor_t *s, const char *func, const
   /* Follow the light backwards: from outside, along -dir_out, into the medium. */
   double back[3] = {-s->dir_out[0], -s->dir_out[1], -s->dir_out[2]}, back_in[3];
   if (!hv_refract(back, n, s->geo.eta / s->geo.eta_out, back_in)) {
-    return hv_fail(s->ctx, HETINV_ERROR_INVALID_ARGUMENT, func,
+    return HV_FAIL(s->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "no light from inside leaves face %d along (%g, %g, %g): with eta %g inside "
                    "and %g outside it lies beyond the critical angle", (int)s->face, d[0], d[1],
                    d[2], s->geo.eta, s->geo.eta_out);
@@ -64,6 +65,7 @@ HETINV_API hetinv_result_t hetinv_sensor_create_orthographic(
     const hetinv_medium_t *medium, hetinv_face_t face, const double direction[3],
     const double origin[2], const double pixel_size[2], int32_t width, int32_t height,
     hetinv_sensor_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
@@ -90,13 +92,13 @@ HETINV_API hetinv_result_t hetinv_sensor_create_orthographic(
                    (int)width, (int)height, (long)HETINV_MAX_SENSOR_PIXELS);
   }
   hetinv_sensor_t *s = NULL;
-  hetinv_result_t r = new_sensor(medium, __func__, HV_SENSOR_ORTHOGRAPHIC, face, &s);
+  hetinv_result_t r = new_sensor(medium, HV_SENSOR_ORTHOGRAPHIC, face, &s);
   if (r != HETINV_SUCCESS) return r;
   memcpy(s->origin, origin, sizeof s->origin);
   memcpy(s->pixel_size, pixel_size, sizeof s->pixel_size);
   s->width = width;
   s->height = height;
-  r = set_direction(s, __func__, direction);
+  r = set_direction(s, direction);
   if (r != HETINV_SUCCESS) {
     hetinv_sensor_destroy(&s);
     return r;
@@ -110,6 +112,7 @@ HETINV_API hetinv_result_t hetinv_sensor_create_hemispherical(const hetinv_mediu
                                                               const double rect_min[2],
                                                               const double rect_max[2],
                                                               hetinv_sensor_t **out) {
+  HV_API_ENTER();
   HV_CHECK_NULL(medium ? medium->ctx : NULL, out);
   *out = NULL;
   HV_CHECK_NULL(NULL, medium);
@@ -120,7 +123,7 @@ HETINV_API hetinv_result_t hetinv_sensor_create_hemispherical(const hetinv_mediu
                    rect_min ? "set" : "NULL", rect_max ? "set" : "NULL");
   }
   hetinv_sensor_t *s = NULL;
-  hetinv_result_t r = new_sensor(medium, __func__, HV_SENSOR_HEMISPHERICAL, face, &s);
+  hetinv_result_t r = new_sensor(medium, HV_SENSOR_HEMISPHERICAL, face, &s);
   if (r != HETINV_SUCCESS) return r;
   int ax[2];
   hv_face_uv_axes(face, &ax[0], &ax[1]);
@@ -142,11 +145,13 @@ HETINV_API hetinv_result_t hetinv_sensor_create_hemispherical(const hetinv_mediu
 }
 
 HETINV_API int32_t hetinv_sensor_pixel_count(const hetinv_sensor_t *sensor) {
+  HV_API_ENTER();
   return sensor ? sensor->width * sensor->height : 0;
 }
 
 HETINV_API hetinv_result_t hetinv_sensor_get_size(const hetinv_sensor_t *sensor, int32_t *width,
                                                   int32_t *height) {
+  HV_API_ENTER();
   HV_CHECK_NULL(NULL, sensor);
   if (width) *width = sensor->width;
   if (height) *height = sensor->height;

@@ -4,7 +4,7 @@
 #include "core/error.h"
 #include "medium/medium_internal.h"
 
-hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, hv_grid_t *out) {
+hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
   *out = (hv_grid_t){0};
   out->ctx = medium->ctx;
   size_t n = medium->voxel_count;
@@ -15,7 +15,7 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, h
   if (hv_mul_size(faces, sizeof(double), &face_bytes)) out->face_storage = hv_alloc(medium->ctx, face_bytes);
   if (out->voxel == NULL || out->face_storage == NULL) {
     hv_grid_release(out);
-    return hv_fail(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY, func,
+    return HV_FAIL(medium->ctx, HETINV_ERROR_OUT_OF_MEMORY,
                    "cannot allocate the tracking grid of %zu voxels", n);
   }
   const double *sa = medium->values[HETINV_PARAM_SIGMA_A], *ss = medium->values[HETINV_PARAM_SIGMA_S];

@@ -50,7 +50,7 @@ typedef struct hv_grid {
 } hv_grid_t;
 
 /* Builds the grid of a committed medium; release with hv_grid_release. */
-hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, const char *func, hv_grid_t *out);
+hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out);
 void hv_grid_release(hv_grid_t *grid);
 
 /* Whether forward free flights are faster by delta tracking than by

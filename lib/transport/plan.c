@@ -61,7 +61,7 @@ static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *
   return true;
 }
 
-hetinv_result_t hv_plans_build(const hetinv_measurements_t *set, const char *func, hv_plans_t *out) {
+hetinv_result_t hv_plans_build(const hetinv_measurements_t *set, hv_plans_t *out) {
   const hetinv_context_t *ctx = set->ctx;
   *out = (hv_plans_t){.ctx = ctx};
   int32_t rows = set->row_count;
@@ -91,7 +91,7 @@ hetinv_result_t hv_plans_build(const hetinv_measurements_t *set, const char *fun
   hv_free(ctx, ids);
   if (!ok) {
     hv_plans_release(out);
-    return hv_fail(ctx, HETINV_ERROR_OUT_OF_MEMORY, func, "cannot allocate the render plan");
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the render plan");
   }
   return HETINV_SUCCESS;
 }

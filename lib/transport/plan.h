@@ -40,7 +40,7 @@ typedef struct hv_plans {
 } hv_plans_t;
 
 /* One plan per distinct emitter of the set, in order of first use. */
-hetinv_result_t hv_plans_build(const hetinv_measurements_t *set, const char *func, hv_plans_t *out);
+hetinv_result_t hv_plans_build(const hetinv_measurements_t *set, hv_plans_t *out);
 void hv_plans_release(hv_plans_t *plans);
 
 #endif

@@ -184,7 +184,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     memcpy(ckpt + len - 8, &sum, 8);
   }
   hetinv_optimizer_t *opt = make_optimizer(c);
-  hetinv_result_t r = hv_checkpoint_restore(opt, ckpt, len, "the fuzz input", "fuzz_checkpoint");
+  hetinv_result_t r = hv_checkpoint_restore(opt, ckpt, len, "the fuzz input");
   free(ckpt);
   size_t n = 99;
   if (r != HETINV_SUCCESS && expect_valid) {

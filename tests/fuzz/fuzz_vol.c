@@ -25,9 +25,9 @@ static int is_zero(const hetinv_vol_header_t *h) {
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-  static const char func[] = "fuzz_vol", source[] = "the fuzz input";
+  static const char source[] = "the fuzz input";
   hetinv_vol_header_t h, full;
-  if (hv_vol_parse(NULL, func, source, data, size, &h, NULL, 0) != HETINV_SUCCESS) {
+  if (hv_vol_parse(NULL, source, data, size, &h, NULL, 0) != HETINV_SUCCESS) {
     CHECK(is_zero(&h));
     return 0;
   }
@@ -38,7 +38,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   size_t capacity = count < MAX_FLOATS ? count : MAX_FLOATS;
   float *values = malloc(capacity * sizeof *values);
   if (values == NULL) return 0;
-  hetinv_result_t r = hv_vol_parse(NULL, func, source, data, size, &full, values, capacity);
+  hetinv_result_t r = hv_vol_parse(NULL, source, data, size, &full, values, capacity);
   if (r == HETINV_SUCCESS) {
     CHECK(memcmp(&h, &full, sizeof h) == 0);
     for (size_t i = 0; i < count; ++i) CHECK(isfinite(values[i]));
@@ -48,7 +48,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     CHECK(is_zero(&full));
   }
   /* One float short is always refused. */
-  r = hv_vol_parse(NULL, func, source, data, size, &full, values, count - 1);
+  r = hv_vol_parse(NULL, source, data, size, &full, values, count - 1);
   CHECK(r == HETINV_ERROR_INVALID_ARGUMENT && is_zero(&full));
   free(values);
   return 0;

@@ -53,7 +53,7 @@ static void fixture_make(fixture_t *f, uint64_t *seed) {
   assert_ok(hetinv_medium_set_grid(f->medium, HETINV_PARAM_SIGMA_A, sa, n));
   assert_ok(hetinv_medium_set_grid(f->medium, HETINV_PARAM_SIGMA_S, ss, n));
   assert_ok(hetinv_medium_commit(f->medium));
-  assert_ok(hv_grid_build(f->medium, "test", &f->grid));
+  assert_ok(hv_grid_build(f->medium, &f->grid));
   assert_false(f->grid.uniform);
 }
 
@@ -340,7 +340,7 @@ static int prefers_delta(double h, double spike, double noise, double scale) {
   assert_ok(hetinv_medium_set_voxel(m, 1, 2, 3, 0.5 * scale * spike, 0.5 * scale * spike, 0.4));
   assert_ok(hetinv_medium_commit(m));
   hv_grid_t g;
-  assert_ok(hv_grid_build(m, "test", &g));
+  assert_ok(hv_grid_build(m, &g));
   int p = hv_grid_prefers_delta(&g);
   assert_true(g.majorant >= scale * spike && g.mean_sigma_t <= g.majorant);
   hv_grid_release(&g);

@@ -71,11 +71,11 @@ static render_out_t render(int delta, uint32_t stream) {
 
   render_out_t out;
   hv_pass_t pass;
-  assert_ok(hv_pass_begin(est, m, set, VALUES, "test", &pass));
+  assert_ok(hv_pass_begin(est, m, set, VALUES, &pass));
   out.delta_chosen = pass.tracer.delta;
   pass.tracer.delta = delta;
   if (delta && pass.grid.majorant > 0.0) assert_true(pass.grid.majorant == 5.0);
-  assert_ok(hv_forward_run(est, &pass, out.v, out.se, NULL, VALUES, "test"));
+  assert_ok(hv_forward_run(est, &pass, out.v, out.se, NULL, VALUES));
   hv_pass_end(&pass);
 
   hetinv_render_stats_t st = {.size = sizeof st};
