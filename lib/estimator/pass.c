@@ -72,7 +72,6 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
       .roulette_survival = param[HETINV_ESTIMATOR_ROULETTE_SURVIVAL],
       .min_scattering = (int32_t)param[HETINV_ESTIMATOR_MIN_SCATTERING],
       .max_scattering = (int32_t)param[HETINV_ESTIMATOR_MAX_SCATTERING],
-      .delta = hv_grid_prefers_delta(&pass->grid),
   };
   pass->seed = hv_mix_seed(ctx->seed, (uint64_t)param[HETINV_ESTIMATOR_EPOCH]);
   pass->photons = (uint64_t)param[HETINV_ESTIMATOR_PHOTONS];

@@ -20,14 +20,12 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
   }
   const double *sa = medium->values[HETINV_PARAM_SIGMA_A], *ss = medium->values[HETINV_PARAM_SIGMA_S];
   const double *g = medium->values[HETINV_PARAM_G];
-  double majorant = 0.0;
   for (size_t i = 0; i < n; ++i) {
     double st = sa[i] + ss[i];
     out->voxel[i] = (hv_voxel_t){.sigma_t = st,
                                  .inv_sigma_t = 1.0 / st,
                                  .albedo = st > 0.0 ? ss[i] / st : 0.0,
                                  .g = g[i]};
-    majorant = st > majorant ? st : majorant;
   }
   const hv_voxel_t *v0 = &out->voxel[0];
   out->uniform = 1;
@@ -36,17 +34,6 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
     out->uniform = out->voxel[i].sigma_t == v0->sigma_t && out->voxel[i].albedo == v0->albedo &&
                    out->voxel[i].g == v0->g;
   }
-  out->majorant = majorant;
-  out->inv_majorant = 1.0 / majorant;
-  /* The mean as σ̄ times the mean of σt/σ̄ (each <= 1): a sum of σt near
-   * DBL_MAX would overflow, and an infinite mean would choose delta
-   * tracking for a grid where it never ends. Only delta tracking's choice
-   * needs it: not computed for a uniform grid. */
-  double sum = 0.0;
-  if (!out->uniform && majorant > 0.0 && majorant < HUGE_VAL) {
-    for (size_t i = 0; i < n; ++i) sum += out->voxel[i].sigma_t * out->inv_majorant;
-  }
-  out->mean_sigma_t = out->uniform ? v0->sigma_t : majorant * (sum / (double)n);
   out->sigma_s = ss;
   int64_t stride = 1;
   double *face = out->face_storage;
@@ -73,19 +60,4 @@ void hv_grid_release(hv_grid_t *grid) {
   hv_free(grid->ctx, grid->face_storage);
   grid->voxel = NULL;
   grid->face_storage = NULL;
-}
-
-int hv_grid_prefers_delta(const hv_grid_t *g) {
-  if (g->uniform || !(g->majorant > 0.0 && g->majorant < HUGE_VAL)) return 0;
-  /* Per unit length, delta tracking makes σ̄ - σt null collisions where
-   * regular tracking crosses Σ_a |d_a| / h_a faces, 1/(2 h_a) per axis
-   * averaged over directions; both cost a voxel look-up and an
-   * unpredictable branch, a null collision a few random numbers more.
-   * Delta tracking is the faster when the grid's mean excess is the
-   * smaller (A1 with ±50 % per-voxel σa, σs: 5.5 against 15 per mm). A
-   * grid with a few dense voxels in a thin or empty medium, where null
-   * collisions would swamp the real ones, keeps regular tracking. */
-  double faces = 0.0;
-  for (int a = 0; a < 3; ++a) faces += 0.5 * g->inv_h[a];
-  return g->majorant - g->mean_sigma_t <= faces;
 }

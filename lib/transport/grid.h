@@ -8,8 +8,6 @@
 #include <stdint.h>
 
 #include "core/compiler.h"
-#include "core/exponential.h"
-#include "core/rng.h"
 #include "hetinv/medium.h"
 #include "hetinv/sampling.h"
 #include "transport/path_log.h"
@@ -44,19 +42,11 @@ typedef struct hv_grid {
    * pass then skip the voxel stepping (hv_ray_march_uniform). */
   int uniform;
   double inv_sigma_t;    /* uniform: 1/σt (inf for σt = 0) */
-  /* Delta tracking (hv_ray_march_delta): the majorant σ̄ = max σt and 1/σ̄,
-   * and the mean σt over the voxels (for choosing the tracking). */
-  double majorant, inv_majorant, mean_sigma_t;
 } hv_grid_t;
 
 /* Builds the grid of a committed medium; release with hv_grid_release. */
 hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out);
 void hv_grid_release(hv_grid_t *grid);
-
-/* Whether forward free flights are faster by delta tracking than by
- * regular tracking in this grid (never for a uniform grid, and only with a
- * finite majorant). */
-int hv_grid_prefers_delta(const hv_grid_t *grid);
 
 /* A ray being tracked: position, unit direction, and its voxel. */
 typedef struct hv_ray {
@@ -268,61 +258,6 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
       *dist = t;
       return 1;
     }
-  }
-}
-
-/* Free flight by delta (Woodcock) tracking, for the forward pass of a
- * heterogeneous grid: tentative collisions at the majorant's rate σ̄, each
- * a real one with probability σt(x)/σ̄, else the flight goes on from there
- * with a fresh optical depth. The real collisions have exactly the law of
- * regular tracking's (the null collisions at rate σ̄ - σt change nothing),
- * without stepping through voxel faces; what it cannot give is the
- * per-voxel segment lengths, so the gradient pass keeps hv_ray_march.
- * depth: the first tentative flight's optical depth (in units of σ̄); the
- * acceptance tests and later depths come from rng, in flight order, so a
- * photon's path depends only on its stream. Returns as hv_ray_march, but
- * without a log: 1 with r->p, r->v, r->k at the collision, 0 at the
- * boundary (r->v, r->k then stale, as in a uniform grid's flight). Needs
- * 0 <= σ̄ < inf (hv_grid_build's choice of tracking ensures it). */
-static inline int hv_ray_march_delta(const hv_grid_t *g, hv_ray_t *r, double depth, double *dist,
-                                     hetinv_face_t *face, const hv_exp_table_t *et, hv_rng_t *rng) {
-  double t = 0.0;
-  for (;;) {
-    double x = depth * g->inv_majorant, q[3];
-    int in = 1;
-    for (int i = 0; i < 3; ++i) {
-      q[i] = r->p[i] + x * r->d[i];
-      in &= (q[i] >= g->lo[i]) & (q[i] <= g->hi[i]); /* false for NaN (σ̄ = 0) */
-    }
-    if (!in) {
-      double rest;
-      hv_ray_exit_box(g, r, &rest, face);
-      *dist = t + rest;
-      return 0;
-    }
-    /* q is in the box: q - lo >= 0, so truncation is floor; q = hi belongs
-     * to the last voxel. Which of two voxels a point on a face belongs to
-     * has probability 0 here. */
-    int64_t k = 0;
-    int32_t v[3];
-    for (int a = 0; a < 3; ++a) {
-      int32_t i = (int32_t)((q[a] - g->lo[a]) * g->inv_h[a]);
-      v[a] = i < g->n[a] ? i : g->n[a] - 1;
-      k += (int64_t)v[a] * g->stride[a];
-    }
-    for (int i = 0; i < 3; ++i) r->p[i] = q[i];
-    t += x;
-    double st = g->voxel[k].sigma_t;
-    /* 32 random bits for the test, as for the angles: the acceptance
-     * probability is rounded up to a multiple of 2^-32, far below any
-     * Monte Carlo error bar. No draw where σt = σ̄. */
-    if (st >= g->majorant || (double)hv_rng_u32(rng) * 0x1p-32 * g->majorant < st) {
-      for (int a = 0; a < 3; ++a) r->v[a] = v[a];
-      r->k = k;
-      *dist = t;
-      return 1;
-    }
-    depth = hv_exp_sample(et, hv_rng_u64(rng), rng);
   }
 }
 

@@ -210,13 +210,10 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
 }
 
 /* The photon loop proper; hv_trace_photon wraps it with the score log.
- * It is inlined three times, with grad and delta constants: the forward
- * pass's free flights then carry no test for a log at each voxel crossing,
- * and no test for the kind of tracking at each flight (the homogeneous
- * fast path is the loop it was). */
+ * It is inlined twice, with grad a constant: the forward pass's free
+ * flights then carry no test for a log at each voxel crossing. */
 HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t *plan,
-                                          hv_rng_t *rng, hv_tally_t *tally, const bool grad,
-                                          const bool delta) {
+                                          hv_rng_t *rng, hv_tally_t *tally, const bool grad) {
   const hv_grid_t *grid = tr->grid;
   hv_path_log_t *plog = grad ? &tally->grad->path : NULL;
   hv_launch_t launch;
@@ -245,10 +242,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
      * stream's buffered outputs, whose counters are never these. */
     philox4x32_ctr_t blk = hv_rng_block(rng);
     double depth = hv_exp_sample(tr->exp_table, (uint64_t)blk.v[0] << 32 | blk.v[1], rng);
-    /* The gradient pass needs each voxel's segment: regular tracking. */
-    int collided = !grad && delta
-                       ? hv_ray_march_delta(grid, &r, depth, &dist, &face, tr->exp_table, rng)
-                       : hv_ray_march(grid, &r, depth, &dist, &face, plog);
+    int collided = hv_ray_march(grid, &r, depth, &dist, &face, plog);
     tau += dist;
     if (!collided) {
       if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) break;
@@ -305,12 +299,10 @@ void hv_trace_photon(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng
     bool tangent = gt->jvp.tangents > 0;
     hv_path_log_reset(&gt->path);
     if (tangent) hv_jvp_path_begin(&gt->jvp);
-    trace(tr, plan, rng, tally, true, false);
+    trace(tr, plan, rng, tally, true);
     /* Most paths never reach a sensor: every entry's share is then 0. */
     if (!tangent && gt->path.scored) hv_grad_apply_log(gt, tr->grid, &gt->path);
-  } else if (tr->delta) {
-    trace(tr, plan, rng, tally, false, true);
   } else {
-    trace(tr, plan, rng, tally, false, false);
+    trace(tr, plan, rng, tally, false);
   }
 }

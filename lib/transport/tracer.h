@@ -27,10 +27,6 @@ typedef struct hv_tracer {
   const hv_exp_table_t *exp_table; /* free-flight optical depths */
   double roulette_weight, roulette_survival;
   int32_t min_scattering, max_scattering; /* max 0: unlimited */
-  /* Forward free flights by delta tracking (hv_ray_march_delta) instead of
-   * regular tracking; never in a uniform grid nor in the gradient pass.
-   * Set from hv_grid_prefers_delta. */
-  int delta;
 } hv_tracer_t;
 
 /* Gradient mode: instead of adding contributions c to values, each splat

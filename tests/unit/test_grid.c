@@ -278,97 +278,11 @@ static void rays_to_boundary_match_reference(void **state) {
   fixture_free(&f);
 }
 
-/* Delta tracking's flights (hv_ray_march_delta): a collision lies in the
- * box, in a voxel with σt > 0 (vacuum voxels are never accepted), with
- * r->v and r->k those of its position, at *dist from the start along d; an
- * exit is on the face it names, *dist away. Every flight ends. */
-static void delta_flights_land_in_matter(void **state) {
-  (void)state;
-  uint64_t seed = UINT64_C(0x13198a2e03707344);
-  fixture_t f;
-  fixture_make(&f, &seed);
-  const hv_grid_t *g = &f.grid;
-  hv_exp_table_t et;
-  hv_exp_table_init(&et);
-  int collisions = 0;
-  for (int i = 0; i < RAYS; ++i) {
-    hv_rng_t rng = hv_rng_init(7, 0, (uint64_t)i, 0);
-    hv_ray_t r;
-    for (int a = 0; a < 3; ++a) r.p[a] = LO[a] + (HI[a] - LO[a]) * uniform(&seed);
-    random_direction(&seed, r.d);
-    hv_ray_locate(g, &r);
-    double p0[3] = {r.p[0], r.p[1], r.p[2]}, dist = -1.0;
-    hetinv_face_t face;
-    double depth = hv_exp_sample(&et, hv_rng_u64(&rng), &rng);
-    int collided = hv_ray_march_delta(g, &r, depth, &dist, &face, &et, &rng);
-    for (int a = 0; a < 3; ++a) {
-      assert_true(r.p[a] >= g->lo[a] && r.p[a] <= g->hi[a]);
-      assert_true(fabs(r.p[a] - (p0[a] + dist * r.d[a])) <= 1e-12 * (1.0 + dist));
-    }
-    if (collided) {
-      ++collisions;
-      hv_ray_t q = r;
-      hv_ray_locate(g, &q);
-      assert_int_equal(q.k, r.k);
-      for (int a = 0; a < 3; ++a) assert_int_equal(q.v[a], r.v[a]);
-      assert_true(g->voxel[r.k].sigma_t > 0.0);
-    } else {
-      int a = hv_face_axis(face);
-      assert_true(r.p[a] == ((int)face & 1 ? g->hi[a] : g->lo[a]));
-    }
-  }
-  assert_true(collisions > RAYS / 4 && collisions < RAYS);
-  fixture_free(&f);
-}
-
-/* A medium of 6³ voxels of σt = scale·(1 ± noise), voxel (1,2,3) at
- * scale·spike (σa = σs; its g differs, so that the grid is not uniform). */
-static int prefers_delta(double h, double spike, double noise, double scale) {
-  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
-  hetinv_context_t *ctx = NULL;
-  assert_ok(hetinv_context_create(&init, &ctx));
-  enum { N = 6 };
-  hetinv_medium_t *m = NULL;
-  assert_ok(hetinv_medium_create(ctx, (double[]){0, 0, 0}, (double[]){N * h, N * h, N * h},
-                                 (int32_t[]){N, N, N}, &m));
-  assert_ok(hetinv_medium_fill(m, 0.5, 0.5, 0.3));
-  uint64_t s = 99;
-  for (int32_t i = 0; i < N * N * N; ++i) {
-    double f = 1.0 + noise * (2.0 * uniform(&s) - 1.0);
-    assert_ok(hetinv_medium_set_voxel(m, i % N, (i / N) % N, i / (N * N), 0.5 * scale * f, 0.5 * scale * f, 0.3));
-  }
-  assert_ok(hetinv_medium_set_voxel(m, 1, 2, 3, 0.5 * scale * spike, 0.5 * scale * spike, 0.4));
-  assert_ok(hetinv_medium_commit(m));
-  hv_grid_t g;
-  assert_ok(hv_grid_build(m, &g));
-  int p = hv_grid_prefers_delta(&g);
-  assert_true(g.majorant >= scale * spike && g.mean_sigma_t <= g.majorant);
-  hv_grid_release(&g);
-  hetinv_medium_destroy(&m);
-  hetinv_context_destroy(&ctx);
-  return p;
-}
-
-/* The choice of tracking: delta where null collisions are fewer than
- * regular tracking's face crossings, regular where a few dense voxels
- * would fill a thin medium with null collisions, or where the majorant
- * is too large for its mean to be summed without care. */
-static void delta_tracking_choice(void **state) {
-  (void)state;
-  assert_true(prefers_delta(0.1, 1.0, 0.5, 1.0));   /* ±50 %, voxels 0.1 mean free paths: delta */
-  assert_false(prefers_delta(0.1, 1e4, 0.0, 1.0));  /* one voxel 10^4 times denser: regular */
-  assert_false(prefers_delta(10.0, 1.0, 0.5, 1.0)); /* voxels of 10 mean free paths: regular */
-  /* σt up to 1.5e306 in 216 voxels: their sum overflows, the mean must not. */
-  assert_false(prefers_delta(0.1, 1.0, 0.5, 1e306));
-}
-
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(random_flights_match_reference),
       cmocka_unit_test(axis_rays_on_faces_match_reference),
       cmocka_unit_test(rays_to_boundary_match_reference),
-      cmocka_unit_test(delta_flights_land_in_matter),
-      cmocka_unit_test(delta_tracking_choice),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
