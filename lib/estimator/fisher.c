@@ -253,7 +253,7 @@ HETINV_API hetinv_result_t hetinv_estimator_crb(
       bool seen = false;
       for (int32_t rep = 0; rep < R && !seen; ++rep) seen = reps[(size_t)rep * kk + i * k + i] != 0.0;
       if (seen) keep[m++] = i;
-      sd[i] = INFINITY;
+      sd[i] = (double)INFINITY;
       if (sd_std_errors) sd_std_errors[i] = 0.0;
       if (sd_lower) sd_lower[i] = mean[i * k + i] > 0.0 ? 1.0 / sqrt(mean[i * k + i]) : (seen ? (double)NAN : (double)INFINITY);
     }

@@ -311,5 +311,42 @@ class Objects(unittest.TestCase):
             hetinv.ParamMap.identity(m, 0)
 
 
+class Bound(unittest.TestCase):
+    """The tangent pass and the Cramér–Rao bound through the binding (the C
+    functions are validated in tests/validation/test_bound.c)."""
+
+    def test_jvp_matches_the_gradient_pass_and_the_bound_is_shaped(self):
+        with hetinv.Context(seed=3, threads=1) as ctx:
+            m = hetinv.Medium(ctx, (0, 0, 0), (1, 1, 1), (2, 1, 2)).set_ior(1.0, 1.0)
+            m.fill(0.5, 5.0, 0.3)
+            m.commit()
+            beam = hetinv.Emitter.ideal(m, (0.5, 0.5, 2.0), (0, 0, -1))
+            top = hetinv.Sensor.orthographic(m, "z_max", (0, 0, 1), (0, 0), (0.5, 1.0), 2, 1)
+            rows = hetinv.Measurements(ctx)
+            rows.add(beam, top)
+            pmap = hetinv.ParamMap.identity(m, ("sigma_a", "sigma_s"))
+            est = hetinv.Estimator(ctx, photons=4000)
+            u = [1.0, -0.5]
+            v = [0.3, -0.2, 0.1, 0.4, -0.1, 0.2, 0.05, -0.3]
+            jv = est.jvp(m, rows, pmap, v)
+            grad = est.gradient(m, rows, u, pmap)
+            lhs = sum(a * b for a, b in zip(u, hetinv.flat(jv.grad)))
+            rhs = sum(a * b for a, b in zip(hetinv.flat(grad.grad), v))
+            # The same photons (same stream) carry the same scores: equal up to rounding.
+            self.assertAlmostEqual(lhs, rhs, delta=1e-9 * (abs(lhs) + abs(rhs)) + 1e-300)
+            with self.assertRaisesRegex(ValueError, "tangent"):
+                est.jvp(m, rows, pmap, v[:3])
+            b = est.crb(m, rows, [1e-6, 1e-6], pmap, replicates=4)
+            sd = list(hetinv.flat(b.sd))
+            self.assertEqual(len(sd), pmap.size)
+            if hetinv.numpy_enabled():
+                self.assertEqual(b.sd.shape, tuple(pmap.shape))
+            lower = list(hetinv.flat(b.lower))
+            for lo, s in zip(lower, sd):
+                self.assertGreater(lo, 0.0)
+                if b.positive_definite:
+                    self.assertGreaterEqual(s, lo * (1 - 1e-12))
+
+
 if __name__ == "__main__":
     unittest.main()

@@ -38,7 +38,7 @@ from .medium import Medium, param_name, vol_read, vol_read_header, vol_write
 from .sampling import Emitter, Pathlength, Sensor
 from .measurements import Measurements
 from .param import ParamMap
-from .estimator import Estimator, Gradient, LossGradient, Render, estimator_param_bounds
+from .estimator import Bound, Estimator, Fisher, Gradient, LossGradient, Render, estimator_param_bounds
 from .optimizer import Optimizer, Progress, optimizer_param_bounds
 from .acquire import Noisy, apply_noise
 

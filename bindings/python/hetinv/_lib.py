@@ -119,6 +119,14 @@ PROTOTYPES = {
     "hetinv_estimator_loss_gradient": (_R, [_vp, _vp, _vp, _vp, c_double_p, c_double_p,
                                             c_double_p, _sz]),
     "hetinv_estimator_get_stats": (_R, [_vp, ctypes.POINTER(RenderStats)]),
+    "hetinv_estimator_jvp": (_R, [_vp, _vp, _vp, _vp, c_double_p, _sz, c_double_p, c_double_p, _sz]),
+    # bound.h
+    "hetinv_estimator_fisher": (_R, [_vp, _vp, _vp, c_double_p, _sz, _vp, _i32, c_double_p,
+                                     c_double_p, _sz]),
+    "hetinv_estimator_crb": (_R, [_vp, _vp, _vp, c_double_p, _sz, _vp, _i32, c_double_p, c_double_p,
+                                  c_double_p, _sz, c_int32_p]),
+    "hetinv_estimator_fisher_diagonal": (_R, [_vp, _vp, _vp, c_double_p, _sz, _vp, _i32, c_double_p,
+                                              c_double_p, _sz]),
     # param.h
     "hetinv_param_map_create_identity": (_R, [_vp, _u32, c_void_pp]),
     "hetinv_param_map_create_coarse": (_R, [_vp, c_int32_p, _u32, c_void_pp]),

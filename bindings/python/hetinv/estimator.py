@@ -35,6 +35,14 @@ class Render(namedtuple("Render", "values std_errors ballistic")):
 Gradient = namedtuple("Gradient", "grad std_errors")
 Gradient.__doc__ = """grad and std_errors: one item per π entry, shaped param_map.shape
 (free parameters, cz, cy, cx) with numpy."""
+Fisher = namedtuple("Fisher", "fisher std_errors")
+Fisher.__doc__ = """The Fisher information of the map's K entries and its standard
+errors (K × K with numpy; flat, row-major, without)."""
+Bound = namedtuple("Bound", "sd std_errors lower positive_definite")
+Bound.__doc__ = """Cramér–Rao standard deviations sqrt((F⁻¹)_kk), their jackknife
+standard errors and the lower bound sqrt(1/F_kk), each shaped
+param_map.shape with numpy; positive_definite False means sd is NaN
+(the estimated F is not positive definite; lower is still valid)."""
 LossGradient = namedtuple("LossGradient", "loss grad rendered")
 LossGradient.__doc__ = """loss, grad (shaped param_map.shape with numpy) and the rendered
 values (flat, like Render.values)."""
@@ -110,6 +118,65 @@ class Estimator(Handle):
         with pinned(self, medium, measurements, param_map):
             check(lib.estimator_gradient(self._ptr, mp, sp, c.ptr, c.count, pm, pg, pe, k))
         return Gradient(grad, errors)
+
+    def jvp(self, medium, measurements, param_map, tangent):
+        """J·v: for every value n, Σ_k ∂I_n/∂π_k·tangent[k]. Returns
+        Gradient-like (values, std_errors), flat like Render.values."""
+        mp, sp = _inputs(medium, measurements)
+        pm = _map(param_map)
+        v = _arrays.to_c(tangent, "d", param_map.size, "tangent")
+        n = measurements.value_count
+        jv, pj = _arrays.empty(n)
+        errors, pe = _arrays.empty(n)
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_jvp(self._ptr, mp, sp, pm, v.ptr, v.count, pj, pe, n))
+        return Gradient(jv, errors)
+
+    def fisher(self, medium, measurements, variances, param_map, replicates=8):
+        """F = JᵀΣ⁻¹J of the map's entries (unbiased: two independent
+        Jacobian estimates per replicate), with standard errors (bound.h)."""
+        mp, sp = _inputs(medium, measurements)
+        pm = _map(param_map)
+        var = _arrays.to_c(variances, "d", measurements.value_count, "variances")
+        k = param_map.size
+        f, pf = _arrays.empty(k * k, "d", (k, k))
+        errors, pe = _arrays.empty(k * k, "d", (k, k))
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_fisher(self._ptr, mp, sp, var.ptr, var.count, pm,
+                                       integer(replicates, "replicates", "int32"), pf, pe, k))
+        return Fisher(f, errors)
+
+    def crb(self, medium, measurements, variances, param_map, replicates=8):
+        """The Cramér–Rao bound of every map entry (bound.h): Bound(sd,
+        std_errors, lower, positive_definite)."""
+        mp, sp = _inputs(medium, measurements)
+        pm = _map(param_map)
+        var = _arrays.to_c(variances, "d", measurements.value_count, "variances")
+        k = param_map.size
+        sd, ps = _arrays.empty(k, "d", param_map.shape)
+        errors, pe = _arrays.empty(k, "d", param_map.shape)
+        lower, pl = _arrays.empty(k, "d", param_map.shape)
+        pd = ctypes.c_int32()
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_crb(self._ptr, mp, sp, var.ptr, var.count, pm,
+                                    integer(replicates, "replicates", "int32"), ps, pe, pl, k,
+                                    ctypes.byref(pd)))
+        return Bound(sd, errors, lower, bool(pd.value))
+
+    def fisher_diagonal(self, medium, measurements, variances, param_map, probes=16):
+        """The diagonal of F by Hutchinson probes, for maps too large for the
+        dense matrix; 1/sqrt of it is a lower bound of the CRB. Returns
+        Gradient-like (diagonal, std_errors) shaped param_map.shape."""
+        mp, sp = _inputs(medium, measurements)
+        pm = _map(param_map)
+        var = _arrays.to_c(variances, "d", measurements.value_count, "variances")
+        k = param_map.size
+        d, pd = _arrays.empty(k, "d", param_map.shape)
+        errors, pe = _arrays.empty(k, "d", param_map.shape)
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_fisher_diagonal(self._ptr, mp, sp, var.ptr, var.count, pm,
+                                                integer(probes, "probes", "int32"), pd, pe, k))
+        return Gradient(d, errors)
 
     def loss_gradient(self, medium, measurements, param_map):
         """The loss of Eq. (9) against the set's measured values, its
