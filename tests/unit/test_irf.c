@@ -3,11 +3,15 @@
  * (hetinv_irf_offsets_from_times). On one random stream the photons are the
  * same whatever the windows, so the checks are exact: a delta IRF gives the
  * bare bins bit for bit, and a two-tap IRF gives the two-tap convolution of
- * bins one spacing wider, to rounding, for the values and the gradient. */
+ * bins one spacing wider, to rounding, for the values and the gradient.
+ * White-box (the optimizer's stages): layer-wise value masks count an IRF's
+ * earliest tap. */
 #include <math.h>
+#include <stdbool.h>
 #include <stdlib.h>
 
 #include "test_support.h"
+#include "optimize/optimizer_internal.h" /* white-box: the layer-wise stages' value masks */
 
 #define NaN ((double)NAN)
 #define Inf ((double)INFINITY)
@@ -305,6 +309,67 @@ static void times_convert_to_pathlengths_in_the_medium(void **state) {
   assert_ok(hetinv_irf_offsets_from_times(NULL, 0, 1.0, 1.0, NULL));
 }
 
+/* A layer-wise stage keeps a bin only if no path that reaches below the
+ * layer can be scored in it. Through an IRF with a tap at offset -0.5 a
+ * path of length τ is also scored at τ - 0.5, so a bin [c - w/2, c + w/2)
+ * collects paths up to c + w/2 + 0.5: the mask of test_optimizer's
+ * layerwise test with every window end moved 0.5 later. */
+static void layerwise_masks_count_the_irf_early_tap(void **state) {
+  (void)state;
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.thread_count = 1;
+  hetinv_context_t *ctx = NULL;
+  assert_ok(hetinv_context_create(&init, &ctx));
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_medium_create(ctx, (double[]){0, 0, 0}, (double[]){1, 1, 1}, (int32_t[]){3, 1, 3}, &m));
+  assert_ok(hetinv_medium_fill(m, 0.5, 3.0, 0.0));
+  assert_ok(hetinv_medium_set_ior(m, 1.3, 1.0));
+  assert_ok(hetinv_medium_commit(m));
+  hetinv_emitter_t *beam = NULL;
+  hetinv_sensor_t *reflect = NULL;
+  hetinv_pathlength_t *pl = NULL;
+  hetinv_measurements_t *set = NULL;
+  hetinv_param_map_t *map = NULL;
+  hetinv_optimizer_t *opt = NULL;
+  enum { B = 16 };
+  const double w = 0.25, early = 0.5;
+  double c[B];
+  for (int b = 0; b < B; ++b) c[b] = (b + 0.5) * w;
+  assert_ok(hetinv_emitter_create_ideal(m, (double[]){0.5, 0.5, -1}, (double[]){0, 0, 1}, &beam));
+  assert_ok(hetinv_sensor_create_orthographic(m, HETINV_FACE_Z_MIN, (double[]){0, 0, -1}, (double[]){0, 0},
+                                              (double[]){1.0 / 3, 1}, 3, 1, &reflect));
+  assert_ok(hetinv_pathlength_create_bins_irf(ctx, HETINV_WINDOW_BOX, B, c, w, 2, (double[]){-early, 0.0},
+                                              (double[]){1.0, 1.0}, &pl));
+  assert_ok(hetinv_measurements_create(ctx, &set));
+  assert_ok(hetinv_measurements_add(set, beam, reflect, pl, NULL));
+  assert_ok(hetinv_param_map_create_identity(m, HETINV_FREE(HETINV_PARAM_SIGMA_S), &map));
+  assert_ok(hetinv_optimizer_create(ctx, set, m, &opt));
+  const double h = 1.0 / 3;
+  assert_ok(hetinv_optimizer_add_layerwise_stages(opt, map, h, 3, 4));
+  assert_int_equal(opt->stage_count, 3);
+  int kept = 0, dropped_by_irf = 0;
+  for (int n = 0; n < 3; ++n) {
+    for (int b = 0; b < B; ++b) {
+      for (int px = 0; px < 3; ++px) {
+        double d = (px + 0.5) / 3 - 0.5, depth2 = 2 * (n + 1) * h, shortest = sqrt(d * d + depth2 * depth2);
+        bool keep = (b + 1) * w + early <= shortest;
+        assert_int_equal(opt->stages[n].value_mask[(size_t)b * 3 + (size_t)px] != 0, keep);
+        kept += keep;
+        dropped_by_irf += !keep && (b + 1) * w <= shortest;
+      }
+    }
+  }
+  assert_true(kept > 0 && dropped_by_irf > 0); /* the test sees both kinds of bins */
+  hetinv_optimizer_destroy(&opt);
+  hetinv_param_map_destroy(&map);
+  hetinv_measurements_destroy(&set);
+  hetinv_pathlength_destroy(&pl);
+  hetinv_sensor_destroy(&reflect);
+  hetinv_emitter_destroy(&beam);
+  hetinv_medium_destroy(&m);
+  hetinv_context_destroy(&ctx);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(delta_irf_gives_the_bare_bins_bit_for_bit),
@@ -312,6 +377,7 @@ int main(void) {
       cmocka_unit_test(irf_keeps_the_total_and_shifts_the_mean),
       cmocka_unit_test(malformed_irf_gets_a_precise_error),
       cmocka_unit_test(times_convert_to_pathlengths_in_the_medium),
+      cmocka_unit_test(layerwise_masks_count_the_irf_early_tap),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
