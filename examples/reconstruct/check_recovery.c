@@ -73,9 +73,9 @@ int main(int argc, char **argv) {
     }
     double tol = atof(argv[3 + q]), mean = sum / (double)n;
     bool bad = tol >= 0.0 && !(mean <= tol);
-    printf("%-13s mean relative error %6.2f %%  max %6.2f %%  %s%.0f %%\n", labels[q], 100.0 * mean,
-           100.0 * mx, tol < 0.0 ? "(not checked)" : bad ? "ABOVE the tolerance " : "tolerance ",
-           100.0 * fmax(tol, 0.0));
+    printf("%-13s mean relative error %6.2f %%  max %6.2f %%", labels[q], 100.0 * mean, 100.0 * mx);
+    if (tol >= 0.0) printf("  %s %.3g %%", bad ? "ABOVE the tolerance" : "tolerance", 100.0 * tol);
+    printf("\n");
     if (bad) status = 1;
   }
 done:
