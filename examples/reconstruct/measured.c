@@ -133,6 +133,11 @@ static int read_values(hetinv_context_t *ctx, const recon_scene_t *sc, const sce
   return status;
 }
 
+static void release_scene(scene_t *scene) {
+  scene_destroy(scene);
+  free(scene);
+}
+
 int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *im, char *msg,
                      size_t msg_size) {
   memset(im, 0, sizeof *im);
@@ -142,6 +147,7 @@ int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *
     return -1;
   }
   im->files = scene;
+  im->files_release = release_scene;
   jr_t jr;
   memset(&jr, 0, sizeof jr);
   if (scene_load(scene, sc->render_scene, &jr) < 0) {
@@ -167,9 +173,3 @@ int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *
   return 0;
 }
 
-void recon_files_release(recon_imaging_t *im) {
-  if (im->files == NULL) return;
-  scene_destroy(im->files);
-  free(im->files);
-  im->files = NULL;
-}

@@ -114,6 +114,8 @@ typedef struct recon_imaging_size {
 } recon_imaging_size_t;
 void recon_imaging_size(const recon_scene_t *scene, recon_imaging_size_t *size);
 
+struct scene; /* a render scene (render/scene.h), for the acquisition from files */
+
 /* The sampling functions and measurement set of a configuration. */
 typedef struct recon_imaging {
   hetinv_measurements_t *set;
@@ -122,7 +124,11 @@ typedef struct recon_imaging {
   int32_t emitter_count, sensor_count, capacity_e, capacity_s;
   hetinv_pathlength_t *steady, *bins;
   int32_t rows_pathlength;      /* rows of configuration (1)/(3) come first */
-  struct scene *files;          /* acquisition from files: the render scene owning the sampling functions */
+  /* Acquisition from files: the render scene owning the sampling functions,
+   * and its release (a pointer, so that the simulated path does not link
+   * the render scene reader). */
+  struct scene *files;
+  void (*files_release)(struct scene *files);
 } recon_imaging_t;
 
 /* Builds the configuration's set for a medium of the scene's box and η. */
@@ -156,8 +162,6 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
  * naming the file, the channel and the row. 0, or -1 after a message. */
 int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *im, char *msg,
                      size_t msg_size);
-/* Releases what recon_files_load() kept (recon_imaging_release calls it). */
-void recon_files_release(recon_imaging_t *im);
 
 /* Loss weights 1/s² from values and standard errors: s = the standard
  * error (variance), max(|value|, 10⁻³·peak) (relative) or 1 (uniform). */
