@@ -2,7 +2,8 @@
  * experiment programs: a scene description (scene.c: defaults = the
  * built-in reduced Fig. 4 scene, and JSON), the imaging configurations of
  * the paper's Fig. 4 (imaging.c), simulated acquisition and measurement
- * files (acquire.c), the optimizer schedule with a progress line
+ * files (acquire.c), acquisition from a render scene and the EXR files of
+ * its rows (measured.c), the optimizer schedule with a progress line
  * (solve.c), and errors and output files (report.c). Public API only. */
 #ifndef HETINV_RECON_H
 #define HETINV_RECON_H
