@@ -13,11 +13,15 @@
 
 #include "hetinv/context.h"
 
-/* Slots per thread the passes hold (memory permitting): with one slot per
- * thread, a thread that finishes its item before an older one is reduced
- * must wait; a second slot lets it run on, so the threads drift apart by up
- * to a batch instead of meeting at every one. */
+/* Slots per thread a pass holds when it runs several threads and its tally
+ * is small (pass.c): with one slot per thread, a thread that finishes its
+ * item before an older one is reduced must wait; a second slot lets it run
+ * on, so the threads drift apart by up to a batch instead of meeting at
+ * every one. A large tally (the gradient pass's 33 bytes per voxel) keeps
+ * one slot per thread: first touching its pages in every pass cost more
+ * than the waits it saves (docs/results/kernel.md). */
 #define HV_BATCH_SLOTS_PER_THREAD 2
+#define HV_BATCH_SPARE_SLOT_BYTES ((size_t)1 << 20)
 #define HV_BATCH_MAX_SLOTS (HV_BATCH_SLOTS_PER_THREAD * HETINV_MAX_THREADS)
 
 typedef struct hv_batch_loop {

@@ -1,5 +1,7 @@
 #include "estimator/pass.h"
 
+#include <stdbool.h>
+
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -95,7 +97,8 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
 
 int hv_pass_slot_count(const hv_pass_t *pass, size_t bytes_per_slot, int *threads) {
   int64_t items = (int64_t)(pass->emitter_hi - pass->emitter_lo) * pass->batches;
-  int64_t s = (int64_t)pass->threads * HV_BATCH_SLOTS_PER_THREAD;
+  bool spare = pass->threads > 1 && bytes_per_slot <= HV_BATCH_SPARE_SLOT_BYTES;
+  int64_t s = (int64_t)pass->threads * (spare ? HV_BATCH_SLOTS_PER_THREAD : 1);
   if (items >= 1 && s > items) s = items;
   if (bytes_per_slot > 0 && (size_t)s > HV_TALLY_BUDGET / bytes_per_slot) {
     s = (int64_t)(HV_TALLY_BUDGET / bytes_per_slot);

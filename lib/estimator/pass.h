@@ -34,7 +34,8 @@ void hv_pass_end(hv_pass_t *pass);
 void hv_pass_trace_batch(const hv_pass_t *pass, int32_t e, int32_t b, hv_tally_t *tally);
 
 /* Tally slots of a pass (hv_batch_loop_t) when each holds bytes_per_slot:
- * HV_BATCH_SLOTS_PER_THREAD per thread, no more than its work items
+ * HV_BATCH_SLOTS_PER_THREAD per thread when several threads run and a slot
+ * holds at most HV_BATCH_SPARE_SLOT_BYTES, else one per thread; no more than its work items
  * (emitters × batches of this rank) and than fit in HV_TALLY_BUDGET bytes
  * in all, at least 1; *threads gets the threads to run, at most the slots.
  * Results do not depend on either; only memory and speed do. */

@@ -80,13 +80,17 @@ static void test_order_and_slots(void **state) {
   }
 }
 
-/* HV_BATCH_SLOTS_PER_THREAD per thread, capped by the items and the 4 GiB
- * tally budget; never more threads than slots. */
+/* HV_BATCH_SLOTS_PER_THREAD per thread for small tallies on several threads,
+ * else one; capped by the items and the 4 GiB tally budget; never more
+ * threads than slots. */
 static void test_slot_count(void **state) {
   (void)state;
   hv_pass_t pass = {.threads = 2, .emitter_lo = 0, .emitter_hi = 1, .batches = 64};
   int threads = 0;
   assert_int_equal(hv_pass_slot_count(&pass, 1000, &threads), 2 * HV_BATCH_SLOTS_PER_THREAD);
+  assert_int_equal(threads, 2);
+  /* A gradient-sized tally: one slot per thread. */
+  assert_int_equal(hv_pass_slot_count(&pass, HV_BATCH_SPARE_SLOT_BYTES + 1, &threads), 2);
   assert_int_equal(threads, 2);
   pass.batches = 3; /* 3 items */
   assert_int_equal(hv_pass_slot_count(&pass, 1000, &threads), 3);
@@ -96,8 +100,8 @@ static void test_slot_count(void **state) {
   assert_int_equal(threads, 2);
   assert_int_equal(hv_pass_slot_count(&pass, (size_t)3 << 30, &threads), 1);
   assert_int_equal(threads, 1);
-  pass.threads = 1;
-  assert_int_equal(hv_pass_slot_count(&pass, 8, &threads), HV_BATCH_SLOTS_PER_THREAD);
+  pass.threads = 1; /* one thread never waits: no spare slot */
+  assert_int_equal(hv_pass_slot_count(&pass, 8, &threads), 1);
   assert_int_equal(threads, 1);
 }
 
