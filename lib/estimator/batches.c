@@ -5,6 +5,10 @@
 #include <stdatomic.h>
 #include <stdbool.h>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include "core/error.h"
 
 /* Shared state of one hv_batches_run. Item i runs in slot i % slots; it may
@@ -22,7 +26,6 @@ typedef struct loop_state {
   atomic_int sleepers;         /* threads in (or entering) the condition wait */
   pthread_mutex_t mutex;
   pthread_cond_t cond; /* signalled when `reduced` grows while someone sleeps */
-  const char *entry;   /* the caller's public function, for workers' failures */
 } loop_state_t;
 
 /* Checks before a waiting thread sleeps: long enough to ride out a slot
@@ -67,21 +70,6 @@ static void reduce_ready(loop_state_t *st) {
   }
 }
 
-static void *worker(void *arg) {
-  loop_state_t *st = arg;
-  const hv_batch_loop_t *loop = st->loop;
-  HV_API_ADOPT(st->entry);
-  for (;;) {
-    int64_t i = atomic_fetch_add(&st->next, 1);
-    if (i >= loop->items) break;
-    wait_reduced(st, i - st->slots + 1); /* the slot's previous item is reduced */
-    loop->run(loop->self, i, (int)(i % st->slots));
-    atomic_store(&st->done[i % st->slots], i);
-    reduce_ready(st);
-  }
-  return NULL;
-}
-
 void hv_batches_run(const hv_batch_loop_t *loop) {
   enum { MAX_SLOTS = HV_BATCH_MAX_SLOTS };
   atomic_int_fast64_t done[MAX_SLOTS]; /* 16 KiB at most: no allocation to fail */
@@ -98,21 +86,19 @@ void hv_batches_run(const hv_batch_loop_t *loop) {
   pthread_cond_init(&st.cond, NULL);
   int threads = loop->threads < st.slots ? loop->threads : (int)st.slots;
   if (threads < 1) threads = 1;
-  if (threads > HETINV_MAX_THREADS) threads = HETINV_MAX_THREADS;
-  st.entry = hv_api_entry;
-  /* Threads of our own, not an OpenMP team: libgomp's idle workers spin
-   * (up to GOMP_SPINCOUNT) between parallel regions, here during the serial
-   * set-up of every pass, taking the CPU that the caller and other
-   * processes need on a loaded machine (docs/results/kernel.md). These
-   * exist only while the loop runs. A thread that cannot be created only
-   * means fewer threads: the result does not depend on their number. */
-  pthread_t helpers[HETINV_MAX_THREADS];
-  int started = 0;
-  while (started < threads - 1 && pthread_create(&helpers[started], NULL, worker, &st) == 0) {
-    ++started;
+  const char *entry = hv_api_entry; /* workers' failures name the caller's public function */
+#pragma omp parallel num_threads(threads)
+  {
+    HV_API_ADOPT(entry);
+    for (;;) {
+      int64_t i = atomic_fetch_add(&st.next, 1);
+      if (i >= loop->items) break;
+      wait_reduced(&st, i - st.slots + 1); /* the slot's previous item is reduced */
+      loop->run(loop->self, i, (int)(i % st.slots));
+      atomic_store(&st.done[i % st.slots], i);
+      reduce_ready(&st);
+    }
   }
-  worker(&st);
-  for (int t = 0; t < started; ++t) pthread_join(helpers[t], NULL);
   pthread_cond_destroy(&st.cond);
   pthread_mutex_destroy(&st.mutex);
 }
