@@ -33,6 +33,13 @@
  *
  *   het_ratio photons=N a1_photons_per_s=P a1_het_photons_per_s=Q het_over_homog=Q/P
  *
+ * --passes P makes each measured run P renders back to back (seconds and
+ * cpu_seconds are then their total, and ms_per_pass is printed): with few
+ * photons per render this is the many-small-passes load of a reconstruction,
+ * where the batch loop's synchronisation, not tracing, sets the pace
+ * (issue 12: oversubscribed machines). --batches B sets the estimator's
+ * batches per emitter (default 64).
+ *
  * This is a benchmark, not a test: it exits non-zero only when the
  * library reports an error.
  */
@@ -50,6 +57,9 @@
 
 #define DEFAULT_PHOTONS 1000000.0
 
+static int g_passes = 1;      /* renders per measured run (--passes) */
+static double g_batches = 0;  /* estimator batches, 0: the default (--batches) */
+
 /* The outcome of one render. */
 typedef struct run {
   double seconds, cpu_seconds, rd, se, specular;
@@ -58,10 +68,17 @@ typedef struct run {
 
 static bool scene_render(scene_t *s, run_t *out) {
   double rd = 0.0, se = 0.0;
-  double t0 = clock_seconds(CLOCK_MONOTONIC), c0 = clock_seconds(CLOCK_PROCESS_CPUTIME_ID);
-  if (!check(hetinv_estimator_render(s->est, s->medium, s->set, &rd, &se, NULL, 1), s->ctx,
-             "render")) {
+  if (g_batches > 0 &&
+      !check(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_BATCHES, g_batches), s->ctx,
+             "set_param BATCHES")) {
     return false;
+  }
+  double t0 = clock_seconds(CLOCK_MONOTONIC), c0 = clock_seconds(CLOCK_PROCESS_CPUTIME_ID);
+  for (int i = 0; i < g_passes; ++i) {
+    if (!check(hetinv_estimator_render(s->est, s->medium, s->set, &rd, &se, NULL, 1), s->ctx,
+               "render")) {
+      return false;
+    }
   }
   double t1 = clock_seconds(CLOCK_MONOTONIC), c1 = clock_seconds(CLOCK_PROCESS_CPUTIME_ID);
   hetinv_render_stats_t st = {.size = sizeof st};
@@ -77,7 +94,8 @@ static bool scene_render(scene_t *s, run_t *out) {
 
 static void print_run(case_id_t c, int32_t threads, const run_t *r) {
   printf("%s threads=%d photons=%" PRIu64 " seconds=%.3f photons_per_s=%.0f Rd=%.4f se=%.4f",
-         cases[c].name, (int)threads, r->photons, r->seconds, (double)r->photons / r->seconds,
+         cases[c].name, (int)threads, r->photons, r->seconds,
+         (double)r->photons * g_passes / r->seconds,
          r->rd, r->se);
   if (cases[c].ref_rd >= 0.0) {
     printf(" ref=%.4f z=%.1f", cases[c].ref_rd,
@@ -88,7 +106,9 @@ static void print_run(case_id_t c, int32_t threads, const run_t *r) {
   }
   /* CPU time of the whole process (all threads, OpenMP spinning included):
    * well below threads × seconds means other work shared the machine. */
-  printf(" cpu_seconds=%.3f\n", r->cpu_seconds);
+  printf(" cpu_seconds=%.3f", r->cpu_seconds);
+  if (g_passes > 1) printf(" passes=%d ms_per_pass=%.3f", g_passes, 1e3 * r->seconds / g_passes);
+  printf("\n");
 }
 
 /* Only one thread count (for profiling): no scaling line. */
@@ -167,12 +187,14 @@ static bool bench_het_ratio(double photons, int repeat) {
 static void usage(FILE *f) {
   fprintf(f,
           "usage: hetinv-bench-forward [--photons N] [--case a1|a1-eta|a1-het|all] [--repeat R]\n"
-          "                            [--threads 1|2] [--het-ratio]\n"
+          "                            [--threads 1|2] [--het-ratio] [--passes P] [--batches B]\n"
           "  --photons N  photons per render (default %.0f)\n"
           "  --case C     which case to run (default all)\n"
           "  --repeat R   renders per thread count; the fastest is reported (default 1)\n"
           "  --threads T  run only with T threads (1 or 2; for profiling: no scaling line)\n"
-          "  --het-ratio  a1 and a1-het on one thread, interleaved: speed of a1-het / a1\n",
+          "  --het-ratio  a1 and a1-het on one thread, interleaved: speed of a1-het / a1\n"
+          "  --passes P   renders per measured run, back to back (default 1)\n"
+          "  --batches B  estimator batches per emitter (default: the estimator's, 64)\n",
           DEFAULT_PHOTONS);
 }
 
@@ -190,6 +212,22 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--photons") == 0 && v) {
       if (!parse_number(v, 1, 281474976710655.0, &photons)) {
         fprintf(stderr, "hetinv-bench-forward: --photons wants an integer >= 1, not '%s'\n", v);
+        return 2;
+      }
+      ++i;
+    } else if (strcmp(a, "--passes") == 0 && v) {
+      double p;
+      if (!parse_number(v, 1, 1e6, &p)) {
+        fprintf(stderr, "hetinv-bench-forward: --passes wants an integer in [1, 1e6], not '%s'\n",
+                v);
+        return 2;
+      }
+      g_passes = (int)p;
+      ++i;
+    } else if (strcmp(a, "--batches") == 0 && v) {
+      if (!parse_number(v, 2, 65536, &g_batches)) {
+        fprintf(stderr, "hetinv-bench-forward: --batches wants an integer in [2, 65536], not '%s'\n",
+                v);
         return 2;
       }
       ++i;

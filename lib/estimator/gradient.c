@@ -29,8 +29,8 @@ typedef struct gradient {
   const hv_pass_t *pass;
   const hetinv_param_map_t *map;
   size_t voxels, k;        /* voxel count; length of π */
-  hv_tally_t *tallies;     /* one per thread */
-  hv_grad_tally_t *grads;  /* one per thread */
+  hv_tally_t *tallies;     /* one per tally slot (batches.h) */
+  hv_grad_tally_t *grads;  /* one per tally slot (batches.h) */
   hv_grad_tally_t emitter; /* the current emitter's partial gradient */
   double *total;           /* Σ over emitters, per voxel entry (3 blocks) */
   /* For standard errors only: the current emitter's batch means pulled
@@ -41,12 +41,12 @@ typedef struct gradient {
   bool out_of_memory;
 } gradient_t;
 
-static void run_item(void *self, int64_t item, int thread) {
+static void run_item(void *self, int64_t item, int slot) {
   gradient_t *g = self;
   const hv_pass_t *pass = g->pass;
   hv_pass_trace_batch(pass, pass->emitter_lo + (int32_t)(item / pass->batches),
-                      (int32_t)(item % pass->batches), &g->tallies[thread]);
-  hv_grad_tally_t *gt = &g->grads[thread];
+                      (int32_t)(item % pass->batches), &g->tallies[slot]);
+  hv_grad_tally_t *gt = &g->grads[slot];
   if (gt->path.out_of_memory || gt->chain.out_of_memory) g->out_of_memory = true;
 }
 
@@ -150,10 +150,10 @@ static void finish_emitter(gradient_t *g) {
   }
 }
 
-static void reduce_item(void *self, int64_t item, int thread) {
+static void reduce_item(void *self, int64_t item, int slot) {
   gradient_t *g = self;
   const hv_pass_t *pass = g->pass;
-  hv_grad_tally_t *gt = &g->grads[thread];
+  hv_grad_tally_t *gt = &g->grads[slot];
   int32_t b = (int32_t)(item % pass->batches);
   hv_grad_fold_extinction(gt); /* σs is complete from here on */
   if (g->var != NULL) {
@@ -187,8 +187,8 @@ static void free_grad_tally(const hetinv_context_t *ctx, hv_grad_tally_t *gt) {
   hv_path_log_release(&gt->chain);
 }
 
-static void release(const hetinv_context_t *ctx, gradient_t *g, int threads) {
-  for (int t = 0; g->grads && t < threads; ++t) free_grad_tally(ctx, &g->grads[t]);
+static void release(const hetinv_context_t *ctx, gradient_t *g, int slots) {
+  for (int t = 0; g->grads && t < slots; ++t) free_grad_tally(ctx, &g->grads[t]);
   free_grad_tally(ctx, &g->emitter);
   hv_free(ctx, g->tallies);
   hv_free(ctx, g->grads);
@@ -224,10 +224,11 @@ hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t 
   gradient_t g = {.pass = pass, .map = map, .k = hetinv_param_map_size(map)};
   g.records.ctx = ctx;
   g.voxels = (size_t)pass->grid.n[0] * (size_t)pass->grid.n[1] * (size_t)pass->grid.n[2];
-  /* Per thread: 3 doubles, a byte and an index per voxel (hv_grad_tally_t). */
-  int threads = hv_pass_thread_count(pass, g.voxels * (3 * sizeof(double) + 1 + sizeof(int64_t)));
-  g.tallies = hv_calloc(ctx, (size_t)threads, sizeof *g.tallies);
-  g.grads = hv_calloc(ctx, (size_t)threads, sizeof *g.grads);
+  /* Per slot: 3 doubles, a byte and an index per voxel (hv_grad_tally_t). */
+  int threads, slots = hv_pass_slot_count(pass, g.voxels * (3 * sizeof(double) + 1 + sizeof(int64_t)),
+                                          &threads);
+  g.tallies = hv_calloc(ctx, (size_t)slots, sizeof *g.tallies);
+  g.grads = hv_calloc(ctx, (size_t)slots, sizeof *g.grads);
   g.total = hv_calloc(ctx, 3 * g.voxels, sizeof(double));
   bool ok = g.tallies && g.grads && g.total && alloc_grad_tally(ctx, g.voxels, &g.emitter);
   if (ok && grad_se) {
@@ -237,14 +238,14 @@ hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t 
     g.var = hv_calloc(ctx, g.k, sizeof(double));
     ok = g.pi_batch && g.mean_sum && g.mean_sq && g.var;
   }
-  for (int t = 0; ok && t < threads; ++t) {
+  for (int t = 0; ok && t < slots; ++t) {
     ok = alloc_grad_tally(ctx, g.voxels, &g.grads[t]);
     g.grads[t].cotangent = cotangent;
     g.tallies[t].grad = &g.grads[t];
   }
   if (ok) {
     hv_batch_loop_t loop = {(int64_t)(pass->emitter_hi - pass->emitter_lo) * pass->batches,
-                            threads, &g, run_item, reduce_item};
+                            threads, &g, run_item, reduce_item, slots};
     hv_batches_run(&loop);
     ok = !g.out_of_memory;
   }
@@ -259,7 +260,7 @@ hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t 
       if (grad_se) grad_se[i] = sqrt(g.var[i]);
     }
   }
-  release(ctx, &g, threads);
+  release(ctx, &g, slots);
   return r;
 }
 

@@ -18,15 +18,15 @@
 typedef struct tangent_pass {
   const hv_pass_t *pass;
   size_t T;
-  hv_tally_t *tallies;    /* one per thread; values: count·T */
-  hv_grad_tally_t *grads; /* one per thread: the score logs and running sums */
+  hv_tally_t *tallies;    /* one per tally slot (batches.h); values: count·T */
+  hv_grad_tally_t *grads; /* one per slot: the score logs and running sums */
   double *total, *mean_sum, *mean_sq; /* count·T each */
   bool out_of_memory;
 } tangent_pass_t;
 
-static void run_item(void *self, int64_t item, int thread) {
+static void run_item(void *self, int64_t item, int slot) {
   tangent_pass_t *f = self;
-  hv_tally_t *tally = &f->tallies[thread];
+  hv_tally_t *tally = &f->tallies[slot];
   int32_t e = f->pass->emitter_lo + (int32_t)(item / f->pass->batches);
   const hv_plan_t *plan = &f->pass->plans.plan[e];
   for (int32_t i = 0; i < plan->range_count; ++i) {
@@ -34,13 +34,13 @@ static void run_item(void *self, int64_t item, int thread) {
     memset(tally->values + plan->range_lo[i] * f->T, 0, n * f->T * sizeof(double));
   }
   hv_pass_trace_batch(f->pass, e, (int32_t)(item % f->pass->batches), tally);
-  hv_grad_tally_t *gt = &f->grads[thread];
+  hv_grad_tally_t *gt = &f->grads[slot];
   if (gt->path.out_of_memory || gt->chain.out_of_memory) f->out_of_memory = true;
 }
 
-static void reduce_item(void *self, int64_t item, int thread) {
+static void reduce_item(void *self, int64_t item, int slot) {
   tangent_pass_t *f = self;
-  const hv_tally_t *tally = &f->tallies[thread];
+  const hv_tally_t *tally = &f->tallies[slot];
   const hv_pass_t *pass = f->pass;
   int32_t e = pass->emitter_lo + (int32_t)(item / pass->batches);
   const hv_plan_t *plan = &pass->plans.plan[e];
@@ -55,8 +55,8 @@ static void reduce_item(void *self, int64_t item, int thread) {
   }
 }
 
-static void release(const hetinv_context_t *ctx, tangent_pass_t *f, int threads) {
-  for (int t = 0; t < threads; ++t) {
+static void release(const hetinv_context_t *ctx, tangent_pass_t *f, int slots) {
+  for (int t = 0; t < slots; ++t) {
     if (f->tallies) hv_free(ctx, f->tallies[t].values);
     if (f->grads) {
       hv_free(ctx, f->grads[t].jvp.run);
@@ -102,14 +102,15 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
     return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%zu values times %d tangents overflow",
                    count, (int)tangents);
   }
-  int threads = pass->threads;
-  f.tallies = hv_calloc(ctx, (size_t)threads, sizeof *f.tallies);
-  f.grads = hv_calloc(ctx, (size_t)threads, sizeof *f.grads);
+  int threads, slots = hv_pass_slot_count(
+      pass, n <= SIZE_MAX / sizeof(double) ? n * sizeof(double) : SIZE_MAX, &threads);
+  f.tallies = hv_calloc(ctx, (size_t)slots, sizeof *f.tallies);
+  f.grads = hv_calloc(ctx, (size_t)slots, sizeof *f.grads);
   f.total = hv_calloc(ctx, n ? n : 1, sizeof(double));
   f.mean_sum = hv_calloc(ctx, n ? n : 1, sizeof(double));
   f.mean_sq = hv_calloc(ctx, n ? n : 1, sizeof(double));
   bool ok = f.tallies && f.grads && f.total && f.mean_sum && f.mean_sq;
-  for (int t = 0; ok && t < threads; ++t) {
+  for (int t = 0; ok && t < slots; ++t) {
     hv_grad_tally_t *gt = &f.grads[t];
     gt->path.ctx = gt->chain.ctx = ctx;
     gt->voxels = voxels;
@@ -122,7 +123,7 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
   }
   if (ok) {
     hv_batch_loop_t loop = {(int64_t)(pass->emitter_hi - pass->emitter_lo) * pass->batches,
-                            threads, &f, run_item, reduce_item};
+                            threads, &f, run_item, reduce_item, slots};
     hv_batches_run(&loop);
     ok = !f.out_of_memory;
   }
@@ -138,7 +139,7 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
       if (std_errors) std_errors[k] = hv_batch_std_error(f.mean_sum[k], f.mean_sq[k], pass->batches);
     }
   }
-  release(ctx, &f, threads);
+  release(ctx, &f, slots);
   return r;
 }
 

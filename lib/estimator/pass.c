@@ -1,5 +1,7 @@
 #include "estimator/pass.h"
 
+#include <stdbool.h>
+
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -88,19 +90,23 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
   return HETINV_SUCCESS;
 }
 
-/* Per-thread tallies of a pass in all: each is as large as the set's values
+/* Tally slots of a pass in all: each is as large as the set's values
  * (render) or 33 bytes per voxel (gradient), so a large set on many threads
  * would otherwise ask for terabytes (1024 threads × 2^26 values × 16 bytes). */
 #define HV_TALLY_BUDGET ((size_t)4 << 30)
 
-int hv_pass_thread_count(const hv_pass_t *pass, size_t bytes_per_thread) {
+int hv_pass_slot_count(const hv_pass_t *pass, size_t bytes_per_slot, int *threads) {
   int64_t items = (int64_t)(pass->emitter_hi - pass->emitter_lo) * pass->batches;
-  int64_t t = pass->threads;
-  if (items >= 1 && t > items) t = items;
-  if (bytes_per_thread > 0 && (size_t)t > HV_TALLY_BUDGET / bytes_per_thread) {
-    t = (int64_t)(HV_TALLY_BUDGET / bytes_per_thread);
+  bool spare = pass->threads > 1 && bytes_per_slot <= HV_BATCH_SPARE_SLOT_BYTES;
+  int64_t s = (int64_t)pass->threads * (spare ? HV_BATCH_SLOTS_PER_THREAD : 1);
+  if (items >= 1 && s > items) s = items;
+  if (bytes_per_slot > 0 && (size_t)s > HV_TALLY_BUDGET / bytes_per_slot) {
+    s = (int64_t)(HV_TALLY_BUDGET / bytes_per_slot);
   }
-  return t < 1 ? 1 : (int)t;
+  if (s < 1) s = 1;
+  *threads = pass->threads < s ? pass->threads : (int)s;
+  if (*threads < 1) *threads = 1;
+  return (int)s;
 }
 
 void hv_pass_end(hv_pass_t *pass) {

@@ -33,11 +33,13 @@ void hv_pass_end(hv_pass_t *pass);
  * plan (emitter) e into tally. */
 void hv_pass_trace_batch(const hv_pass_t *pass, int32_t e, int32_t b, hv_tally_t *tally);
 
-/* Threads a pass runs with when each holds a tally of bytes_per_thread:
- * no more than its work items (emitters × batches of this rank) and than
- * fit in HV_TALLY_BUDGET bytes in all, at least 1. Results do not depend on
- * the thread count; only memory and speed do. */
-int hv_pass_thread_count(const hv_pass_t *pass, size_t bytes_per_thread);
+/* Tally slots of a pass (hv_batch_loop_t) when each holds bytes_per_slot:
+ * HV_BATCH_SLOTS_PER_THREAD per thread when several threads run and a slot
+ * holds at most HV_BATCH_SPARE_SLOT_BYTES, else one per thread; no more than its work items
+ * (emitters × batches of this rank) and than fit in HV_TALLY_BUDGET bytes
+ * in all, at least 1; *threads gets the threads to run, at most the slots.
+ * Results do not depend on either; only memory and speed do. */
+int hv_pass_slot_count(const hv_pass_t *pass, size_t bytes_per_slot, int *threads);
 
 /* Photons in batch b. */
 double hv_pass_batch_size(const hv_pass_t *pass, int32_t b);

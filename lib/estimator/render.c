@@ -18,7 +18,7 @@
 
 typedef struct forward {
   const hv_pass_t *pass;
-  hv_tally_t *tallies; /* one per thread */
+  hv_tally_t *tallies; /* one per tally slot (batches.h) */
   /* Per value: the total, and the sum and sum of squares of batch means. */
   double *total, *mean_sum, *mean_sq, *ballistic;
   double (*stats_sum)[HV_STAT_COUNT];      /* per emitter */
@@ -27,9 +27,9 @@ typedef struct forward {
 } forward_t;
 
 /* Items run emitter-major over this rank's emitters: item = (e - lo)·B + b. */
-static void run_item(void *self, int64_t item, int thread) {
+static void run_item(void *self, int64_t item, int slot) {
   forward_t *f = self;
-  hv_tally_t *tally = &f->tallies[thread];
+  hv_tally_t *tally = &f->tallies[slot];
   int32_t e = f->pass->emitter_lo + (int32_t)(item / f->pass->batches);
   const hv_plan_t *plan = &f->pass->plans.plan[e];
   for (int32_t i = 0; i < plan->range_count; ++i) {
@@ -41,9 +41,9 @@ static void run_item(void *self, int64_t item, int thread) {
   hv_pass_trace_batch(f->pass, e, (int32_t)(item % f->pass->batches), tally);
 }
 
-static void reduce_item(void *self, int64_t item, int thread) {
+static void reduce_item(void *self, int64_t item, int slot) {
   forward_t *f = self;
-  const hv_tally_t *tally = &f->tallies[thread];
+  const hv_tally_t *tally = &f->tallies[slot];
   const hv_pass_t *pass = f->pass;
   int32_t e = pass->emitter_lo + (int32_t)(item / pass->batches);
   int32_t b = (int32_t)(item % pass->batches);
@@ -162,8 +162,8 @@ static hetinv_result_t share(forward_t *f, bool with_ballistic, hetinv_result_t 
   return r;
 }
 
-static void release(const hetinv_context_t *ctx, forward_t *f, int threads) {
-  for (int t = 0; f->tallies && t < threads; ++t) {
+static void release(const hetinv_context_t *ctx, forward_t *f, int slots) {
+  for (int t = 0; f->tallies && t < slots; ++t) {
     hv_free(ctx, f->tallies[t].values);
     hv_free(ctx, f->tallies[t].ballistic);
   }
@@ -181,8 +181,8 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
                                double *std_errors, double *ballistic, size_t count) {
   const hetinv_context_t *ctx = pass->ctx;
   forward_t f = {.pass = pass};
-  int threads = hv_pass_thread_count(pass, count * sizeof(double) * (ballistic ? 2 : 1));
-  f.tallies = hv_calloc(ctx, (size_t)threads, sizeof *f.tallies);
+  int threads, slots = hv_pass_slot_count(pass, count * sizeof(double) * (ballistic ? 2 : 1), &threads);
+  f.tallies = hv_calloc(ctx, (size_t)slots, sizeof *f.tallies);
   f.total = hv_calloc(ctx, count, sizeof(double));
   f.mean_sum = hv_calloc(ctx, count, sizeof(double));
   f.mean_sq = hv_calloc(ctx, count, sizeof(double));
@@ -192,7 +192,7 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
   f.stats_mean_sq = hv_calloc(ctx, (size_t)pass->plans.count, sizeof *f.stats_mean_sq);
   bool ok = f.tallies && f.total && f.mean_sum && f.mean_sq && (!ballistic || f.ballistic) &&
             f.stats_sum && f.stats_mean_sum && f.stats_mean_sq;
-  for (int t = 0; ok && t < threads; ++t) {
+  for (int t = 0; ok && t < slots; ++t) {
     f.tallies[t].values = hv_calloc(ctx, count, sizeof(double));
     if (ballistic) f.tallies[t].ballistic = hv_calloc(ctx, count, sizeof(double));
     ok = f.tallies[t].values && (!ballistic || f.tallies[t].ballistic);
@@ -200,7 +200,7 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
   hetinv_result_t r = HETINV_SUCCESS;
   if (ok) {
     hv_batch_loop_t loop = {(int64_t)(pass->emitter_hi - pass->emitter_lo) * pass->batches,
-                            threads, &f, run_item, reduce_item};
+                            threads, &f, run_item, reduce_item, slots};
     hv_batches_run(&loop);
   } else {
     r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
@@ -217,7 +217,7 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
     }
     fill_stats(est, &f);
   }
-  release(ctx, &f, threads);
+  release(ctx, &f, slots);
   return r;
 }
 
