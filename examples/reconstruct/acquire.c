@@ -12,13 +12,12 @@
  * optimizer never reuses the paths that made its data. */
 #define RECON_TRUTH_STREAM 40000
 
-/* Loss weights from the measured values and their standard errors. */
-static void set_weights(const recon_scene_t *sc, const double *v, const double *se, double *w, size_t n) {
+void recon_set_weights(int weighting, const double *v, const double *se, double *w, size_t n) {
   double peak = 0.0;
   for (size_t i = 0; i < n; ++i) peak = fmax(peak, fabs(v[i]));
   for (size_t i = 0; i < n; ++i) {
     double s;
-    switch (sc->weighting) {
+    switch (weighting) {
       case RECON_WEIGHT_VARIANCE: s = se[i] > 0.0 ? se[i] : 1e-6 * peak; break;
       case RECON_WEIGHT_RELATIVE: s = fmax(fabs(v[i]), 1e-3 * peak); break;
       default: s = 1.0; break;
@@ -69,7 +68,7 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
     }
   }
   if (r == HETINV_SUCCESS) {
-    set_weights(sc, v, se, w, n);
+    recon_set_weights(sc->weighting, v, se, w, n);
     r = hetinv_measurements_set_values(im->set, v, se, n);
   }
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, w, n);

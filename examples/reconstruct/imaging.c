@@ -214,6 +214,7 @@ hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t
 
 void recon_imaging_release(recon_imaging_t *im) {
   hetinv_measurements_destroy(&im->set);
+  if (im->files_release != NULL) im->files_release(im->files);
   for (int32_t i = 0; i < im->emitter_count; ++i) hetinv_emitter_destroy(&im->emitters[i]);
   for (int32_t i = 0; i < im->sensor_count; ++i) hetinv_sensor_destroy(&im->sensors[i]);
   free(im->emitters);

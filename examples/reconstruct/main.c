@@ -10,6 +10,10 @@
  * truth (bound.c) and stops; otherwise the bound is written beside the
  * recovery and errors.csv gains achieved/bound, unless --no-bound.
  *
+ * A scene whose "acquisition" names a render scene and measured files
+ * (docs/reconstruct-format.md) is reconstructed from those files alone
+ * (measured.c): no simulation, no bound, the truth only if named.
+ *
  * Exit status: 0 success, 1 failure (message on stderr), 2 usage error. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -101,6 +105,10 @@ static int run(int argc, char **argv, outdir_t *dir) {
     fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
     return 1;
   }
+  const bool files = sc.render_scene[0] != '\0';
+  /* The bound is computed at the truth's clean values, which measured data do not give. */
+  if (files && bound_only) return usage("--bound-only: a reconstruction from measured files has no truth to compute the bound at");
+  if (files) no_bound = true;
   if (out_dir) snprintf(sc.output, sizeof sc.output, "%s", out_dir);
   if (threads >= 0) sc.threads = (int32_t)threads;
   if (iterations > 0) sc.iterations = iterations;
@@ -124,20 +132,33 @@ static int run(int argc, char **argv, outdir_t *dir) {
   hetinv_medium_t *truth = NULL, *rec = NULL;
   recon_imaging_t im;
   memset(&im, 0, sizeof im);
-  if (recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
+  if (files) {
+    /* The render scene and the measured files; the truth, if named, only for the errors. */
+    if (recon_files_load(ctx, &sc, &im, msg, sizeof msg) < 0) {
+      fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+      status = 1;
+    } else if (sc.has_truth && recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
+      status = recon_fail("hetinv-reconstruct", ctx, "truth");
+    }
+  } else if (recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
     status = recon_fail("hetinv-reconstruct", ctx, "ground truth");
   } else if (recon_imaging_build(ctx, truth, &sc, &im) != HETINV_SUCCESS) {
     status = recon_fail("hetinv-reconstruct", ctx, "imaging configuration");
   }
-  if (status == 0 && root) {
+  if (status == 0 && root && files) {
+    printf("hetinv-reconstruct: %s: %d x %d x %d voxels, %d rows, %zu values read from %s\n", sc.name,
+           (int)sc.grid[0], (int)sc.grid[1], (int)sc.grid[2], (int)hetinv_measurements_row_count(im.set),
+           hetinv_measurements_value_count(im.set), sc.measured);
+    fflush(stdout);
+  } else if (status == 0 && root) {
     printf("hetinv-reconstruct: %s: %d x %d x %d voxels, %d sources, %d rows, %zu values\n", sc.name,
            (int)sc.grid[0], (int)sc.grid[1], (int)sc.grid[2], (int)im.emitter_count,
            (int)hetinv_measurements_row_count(im.set), hetinv_measurements_value_count(im.set));
     fflush(stdout);
   }
   char path[1200];
-  if (bound_only) {
-    /* the bound needs the configuration and the truth only */
+  if (bound_only || files) {
+    /* the bound needs the configuration and the truth only; files were read above */
   } else if (status == 0 && sc.measurements[0]) {
     if (recon_measurements_read(ctx, &im, sc.measurements, msg, sizeof msg) != HETINV_SUCCESS) {
       fprintf(stderr, "hetinv-reconstruct: measurements: %s\n", msg);
@@ -165,7 +186,15 @@ static int run(int argc, char **argv, outdir_t *dir) {
     fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
     status = 1;
   }
-  if (status == 0 && root && !bound_only) {
+  if (status == 0 && root && !bound_only && truth == NULL) {
+    printf("optimisation %.1f s, total %.1f s (no truth given: no errors)\n", seconds, recon_now() - t0);
+    if (recon_write_outputs(ctx, &sc, NULL, rec, NULL, msg, sizeof msg) != HETINV_SUCCESS) {
+      fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+      status = 1;
+    } else {
+      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv}\n", sc.output);
+    }
+  } else if (status == 0 && root && !bound_only) {
     recon_errors_t e;
     recon_errors(truth, rec, &e);
     recon_bound_attach(&bound, &e);

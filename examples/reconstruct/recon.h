@@ -2,7 +2,8 @@
  * experiment programs: a scene description (scene.c: defaults = the
  * built-in reduced Fig. 4 scene, and JSON), the imaging configurations of
  * the paper's Fig. 4 (imaging.c), simulated acquisition and measurement
- * files (acquire.c), the optimizer schedule with a progress line
+ * files (acquire.c), acquisition from a render scene and the EXR files of
+ * its rows (measured.c), the optimizer schedule with a progress line
  * (solve.c), and errors and output files (report.c). Public API only. */
 #ifndef HETINV_RECON_H
 #define HETINV_RECON_H
@@ -58,6 +59,16 @@ typedef struct recon_scene {
   hetinv_noise_model_t noise_model;
   int weighting;
   char measurements[1024];      /* load these (EXR) instead of simulating; "" = simulate */
+  /* Acquisition from files (measured.c): a render scene (its emitters,
+   * sensors, pathlengths and rows; its medium for the grid, box and η
+   * only) and the EXR files of its rows. "" = the imaging configurations
+   * above. Paths resolved against the reconstruction scene's folder. */
+  char render_scene[1024];
+  char measured[1024];          /* folder of <row>.exr */
+  char std_errors[1024];        /* folder of <row>_stderr.exr; "" = none */
+  bool has_box;                 /* the render scene's box (else the cube of `size`) */
+  double box_min[3], box_max[3], eta_out;
+  bool has_truth;               /* false (files without "truth"): no errors reported */
   int64_t truth_photons;        /* photons per emitter of the simulated measurements */
   /* Estimator during optimisation. */
   int64_t photons;
@@ -105,6 +116,8 @@ typedef struct recon_imaging_size {
 } recon_imaging_size_t;
 void recon_imaging_size(const recon_scene_t *scene, recon_imaging_size_t *size);
 
+struct scene; /* a render scene (render/scene.h), for the acquisition from files */
+
 /* The sampling functions and measurement set of a configuration. */
 typedef struct recon_imaging {
   hetinv_measurements_t *set;
@@ -113,6 +126,11 @@ typedef struct recon_imaging {
   int32_t emitter_count, sensor_count, capacity_e, capacity_s;
   hetinv_pathlength_t *steady, *bins;
   int32_t rows_pathlength;      /* rows of configuration (1)/(3) come first */
+  /* Acquisition from files: the render scene owning the sampling functions,
+   * and its release (a pointer, so that the simulated path does not link
+   * the render scene reader). */
+  struct scene *files;
+  void (*files_release)(struct scene *files);
 } recon_imaging_t;
 
 /* Builds the configuration's set for a medium of the scene's box and η. */
@@ -138,6 +156,19 @@ hetinv_result_t recon_measurements_write(hetinv_context_t *ctx, const recon_imag
 hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *im,
                                         const char *path, char *msg, size_t msg_size);
 
+/* Acquisition from files: reads sc->render_scene, takes the grid, box and
+ * η from it (never its medium's values), builds its measurement set in im
+ * and reads every row's values from <measured>/<row>.exr (and standard
+ * errors from <std_errors>/<row>_stderr.exr), checked: a missing file, a
+ * wrong channel count or pixel size, a non-finite value get a message
+ * naming the file, the channel and the row. 0, or -1 after a message. */
+int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *im, char *msg,
+                     size_t msg_size);
+
+/* Loss weights 1/s² from values and standard errors: s = the standard
+ * error (variance), max(|value|, 10⁻³·peak) (relative) or 1 (uniform). */
+void recon_set_weights(int weighting, const double *v, const double *se, double *w, size_t n);
+
 /* Runs the scene's schedule from its uniform initial medium, writing
  * <output>/checkpoint.bin as it goes and <output>/loss.csv at the end. With
  * `resume`, continues from the checkpoint if it exists. `quiet` suppresses
@@ -158,7 +189,8 @@ typedef struct recon_errors {
 void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *recovered, recon_errors_t *e);
 
 /* Writes recovered_<param>.vol, maps.exr and maps_<param>.png (truth beside
- * recovery) and errors.csv into the scene's output directory; on failure
+ * recovery) and errors.csv into the scene's output directory (with truth
+ * NULL: the recovery alone, no truth_*.vol, no errors.csv); on failure
  * msg receives "<file>: <reason>" (the library's message for its writers). */
 hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *scene,
                                     const hetinv_medium_t *truth,

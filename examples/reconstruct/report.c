@@ -31,12 +31,15 @@ static double section_value(const hetinv_medium_t *m, int p, int32_t x, int32_t 
   return g[((size_t)z * (size_t)d[1] + (size_t)(d[1] / 2)) * (size_t)d[0] + (size_t)x];
 }
 
-/* truth | recovery, side by side with a one-cell gap, each cell `s` pixels. */
+/* truth | recovery, side by side with a one-cell gap, each cell `s` pixels
+ * (without a truth, the recovery alone). */
 static hetinv_result_t write_png(hetinv_context_t *ctx, const char *dir, int p, const hetinv_medium_t *truth,
                                  const hetinv_medium_t *rec) {
   int32_t d[3];
-  hetinv_medium_get_dims(truth, d);
-  int32_t s = 256 / d[0] > 1 ? 256 / d[0] : 1, w = (2 * d[0] + 1) * s, h = d[2] * s;
+  hetinv_medium_get_dims(rec, d);
+  const int32_t left = truth ? d[0] + 1 : 0; /* cells before the recovery */
+  if (truth == NULL) truth = rec;
+  int32_t s = 256 / d[0] > 1 ? 256 / d[0] : 1, w = (left + d[0]) * s, h = d[2] * s;
   double lo = INFINITY, hi = -INFINITY;
   for (int32_t z = 0; z < d[2]; ++z) {
     for (int32_t x = 0; x < d[0]; ++x) {
@@ -52,8 +55,8 @@ static hetinv_result_t write_png(hetinv_context_t *ctx, const char *dir, int p, 
   for (int32_t y = 0; y < h; ++y) {
     for (int32_t x = 0; x < w; ++x) {
       int32_t cx = x / s, cz = d[2] - 1 - y / s; /* z up */
-      double v = cx < d[0] ? section_value(truth, p, cx, cz)
-               : cx > d[0] ? section_value(rec, p, cx - d[0] - 1, cz) : lo;
+      double v = cx >= left ? section_value(rec, p, cx - left, cz)
+               : cx < d[0] ? section_value(truth, p, cx, cz) : lo;
       px[(size_t)y * (size_t)w + (size_t)x] = (float)v;
     }
   }
@@ -67,14 +70,15 @@ static hetinv_result_t write_png(hetinv_context_t *ctx, const char *dir, int p, 
 static hetinv_result_t write_exr(hetinv_context_t *ctx, const char *dir, const hetinv_medium_t *truth,
                                  const hetinv_medium_t *rec) {
   int32_t d[3];
-  hetinv_medium_get_dims(truth, d);
+  hetinv_medium_get_dims(rec, d);
+  const int kinds = truth ? 2 : 1; /* truth_<p> and recovered_<p>, or recovered_<p> alone */
   hetinv_image_t *img = NULL;
-  hetinv_result_t r = hetinv_image_create(ctx, d[0], d[2], 6, &img);
+  hetinv_result_t r = hetinv_image_create(ctx, d[0], d[2], 3 * kinds, &img);
   for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
     char name[64];
-    for (int which = 0; r == HETINV_SUCCESS && which < 2; ++which) {
+    for (int which = 2 - kinds; r == HETINV_SUCCESS && which < 2; ++which) {
       snprintf(name, sizeof name, "%s_%s", which ? "recovered" : "truth", hetinv_param_name(p));
-      int32_t c = 2 * p + which;
+      int32_t c = kinds * p + which - (2 - kinds);
       r = hetinv_image_set_channel_name(img, c, name);
       float *px = hetinv_image_channel_data(img, c);
       for (int32_t z = 0; z < d[2]; ++z) {
@@ -100,7 +104,7 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
   for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
     snprintf(path, sizeof path, "%s/recovered_%s.vol", dir, hetinv_param_name(p));
     r = hetinv_medium_write_vol(rec, p, path);
-    if (r == HETINV_SUCCESS) {
+    if (r == HETINV_SUCCESS && truth != NULL) {
       snprintf(path, sizeof path, "%s/truth_%s.vol", dir, hetinv_param_name(p));
       r = hetinv_medium_write_vol(truth, p, path);
     }
@@ -117,6 +121,7 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
     snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
     return r;
   }
+  if (truth == NULL) return HETINV_SUCCESS; /* nothing to compare with */
   snprintf(path, sizeof path, "%s/errors.csv", dir);
   char tmp[1220];
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);

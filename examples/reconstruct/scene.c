@@ -5,10 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "faces.h"
 #include "jsonread.h"
 #include "recon.h"
 
-static const char *const FACE_NAMES[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max", NULL};
 static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
 
 void recon_scene_default(recon_scene_t *sc) {
@@ -25,6 +25,7 @@ void recon_scene_default(recon_scene_t *sc) {
   sc->grid[2] = 6;
   sc->eta = 1.3;
   sc->truth_kind = RECON_TRUTH_MIXTURE;
+  sc->has_truth = true;
   sc->truth_seed = 1;
   double lo[3] = {1.0, 1.0, 0.1}, hi[3] = {10.0, 10.0, 0.6};
   memcpy(sc->truth_lo, lo, sizeof lo);
@@ -87,8 +88,8 @@ static int read_faces(jr_t *jr, const cJSON *obj, const char *path, const char *
   for (int i = 0; i < count; ++i) {
     const cJSON *item = cJSON_GetArrayItem(arr, i);
     int f = -1;
-    for (int k = 0; FACE_NAMES[k] && cJSON_IsString(item); ++k) {
-      if (strcmp(item->valuestring, FACE_NAMES[k]) == 0) f = k;
+    for (int k = 0; face_names[k] && cJSON_IsString(item); ++k) {
+      if (strcmp(item->valuestring, face_names[k]) == 0) f = k;
     }
     char el[JR_PATH_MAX];
     jr_index(el, at, i);
@@ -141,14 +142,34 @@ static int read_triplet_object(jr_t *jr, const cJSON *o, const char *path, const
   return 1;
 }
 
+/* name relative to the folder of the scene file `scene` (as written),
+ * unless absolute; -1 if it does not fit in size bytes. */
+static int resolve_path(const char *scene, const char *name, char *out, size_t size) {
+  const char *slash = strrchr(scene, '/');
+  size_t dir = name[0] == '/' || slash == NULL ? 0 : (size_t)(slash - scene) + 1;
+  size_t len = strlen(name);
+  if (dir + len >= size) return -1;
+  memcpy(out, scene, dir);
+  memcpy(out + dir, name, len + 1);
+  return 0;
+}
+
 static int read_truth(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   const cJSON *o = NULL;
   int got = jr_object(jr, root, "", "truth", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"kind", "seed", "range", "vol", NULL};
-  if (jr_check_object(jr, o, "truth", allowed) < 0) return -1;
+  static const char *const allowed_files[] = {"kind", "vol", NULL};
+  const bool files = sc->render_scene[0] != '\0';
+  if (jr_check_object(jr, o, "truth", files ? allowed_files : allowed) < 0) return -1;
   static const char *const kinds[] = {"mixture", "smoke", "vol", NULL};
+  if (files) sc->truth_kind = RECON_TRUTH_VOL;
   if (jr_choice(jr, o, "truth", "kind", JR_OPTIONAL, kinds, &sc->truth_kind) < 0) return -1;
+  if (files && sc->truth_kind != RECON_TRUTH_VOL) {
+    return jr_fail(jr, "truth.kind", "only \"vol\" with acquisition.render_scene: the truth is "
+                   "only compared with the recovery, never simulated");
+  }
+  sc->has_truth = true;
   int64_t seed = (int64_t)sc->truth_seed;
   if (jr_integer(jr, o, "truth", "seed", JR_OPTIONAL, 0, INT64_MAX, &seed) < 0) return -1;
   sc->truth_seed = (uint64_t)seed;
@@ -159,7 +180,13 @@ static int read_truth(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   for (int p = 0; got > 0 && p < 3; ++p) {
     const char *s = NULL;
     if (jr_string(jr, v, "truth.vol", PARAM_KEYS[p], JR_REQUIRED, &s) < 0) return -1;
-    snprintf(sc->truth_vol[p], sizeof sc->truth_vol[p], "%s", s);
+    if (files && resolve_path(jr->file, s, sc->truth_vol[p], sizeof sc->truth_vol[p]) < 0) {
+      char at[JR_PATH_MAX];
+      jr_key(at, "truth.vol", PARAM_KEYS[p]);
+      return jr_fail(jr, at, "the path is too long");
+    } else if (!files) {
+      snprintf(sc->truth_vol[p], sizeof sc->truth_vol[p], "%s", s);
+    }
   }
   return 0;
 }
@@ -200,13 +227,61 @@ static int read_imaging(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   return 0;
 }
 
+/* A string naming a file or folder, resolved against the scene's folder. */
+static int read_path(jr_t *jr, const cJSON *o, const char *path, const char *key, int required,
+                     char *out, size_t size) {
+  const char *s = NULL;
+  int got = jr_string(jr, o, path, key, required, &s);
+  if (got <= 0) return got;
+  char at[JR_PATH_MAX];
+  jr_key(at, path, key);
+  if (resolve_path(jr->file, s, out, size) < 0) return jr_fail(jr, at, "the path is too long");
+  return 1;
+}
+
+/* The acquisition from files (measured.c): a render scene and the folders
+ * of its rows' measured values and standard errors. */
+static int read_files(jr_t *jr, const cJSON *o, recon_scene_t *sc) {
+  static const char *const simulated[] = {"noise", "full_well", "read_noise", "seed", "photons",
+                                          "measurements", NULL};
+  for (int k = 0; simulated[k]; ++k) {
+    char at[JR_PATH_MAX];
+    jr_key(at, "acquisition", simulated[k]);
+    if (jr_get(o, simulated[k]) != NULL) {
+      return jr_fail(jr, at, "not used with \"render_scene\": the measured files are the data");
+    }
+  }
+  if (read_path(jr, o, "acquisition", "render_scene", JR_REQUIRED, sc->render_scene, sizeof sc->render_scene) < 0 ||
+      read_path(jr, o, "acquisition", "measured", JR_REQUIRED, sc->measured, sizeof sc->measured) < 0 ||
+      read_path(jr, o, "acquisition", "std_errors", JR_OPTIONAL, sc->std_errors, sizeof sc->std_errors) < 0) {
+    return -1;
+  }
+  static const char *const weights[] = {"variance", "relative", "uniform", NULL};
+  if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, weights, &sc->weighting) < 0) return -1;
+  /* Variances come from the standard-error files hetinv-render writes beside the values. */
+  if (sc->weighting == RECON_WEIGHT_VARIANCE && sc->std_errors[0] == '\0') {
+    snprintf(sc->std_errors, sizeof sc->std_errors, "%s", sc->measured);
+  }
+  sc->noise = false;
+  sc->has_truth = false; /* unless "truth" names .vol files */
+  return 0;
+}
+
 static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   const cJSON *o = NULL;
   int got = jr_object(jr, root, "", "acquisition", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"noise", "full_well", "read_noise", "seed", "weighting",
-                                        "photons", "measurements", NULL};
+                                        "photons", "measurements", "render_scene", "measured",
+                                        "std_errors", NULL};
   if (jr_check_object(jr, o, "acquisition", allowed) < 0) return -1;
+  if (jr_get(o, "render_scene") != NULL) return read_files(jr, o, sc);
+  static const char *const files_only[] = {"measured", "std_errors", NULL};
+  for (int k = 0; files_only[k]; ++k) {
+    char at[JR_PATH_MAX];
+    jr_key(at, "acquisition", files_only[k]);
+    if (jr_get(o, files_only[k]) != NULL) return jr_fail(jr, at, "only with \"render_scene\"");
+  }
   const cJSON *noise = jr_get(o, "noise");
   if (noise && !cJSON_IsBool(noise)) return jr_fail(jr, "acquisition.noise", "expected true or false");
   if (noise) sc->noise = cJSON_IsTrue(noise);
@@ -318,10 +393,19 @@ static int parse_root(jr_t *jrp, cJSON *root, recon_scene_t *sc, char *msg, size
   if (rc == 0 && jr_integer(&jr, root, "", "seed", JR_OPTIONAL, 0, INT64_MAX, &v) < 0) rc = -1;
   sc->seed = (uint64_t)v;
   if (rc == 0 && read_int32(&jr, root, "", "threads", 0, HETINV_MAX_THREADS, &sc->threads) < 0) rc = -1;
+  /* The acquisition first: from files, the render scene replaces "medium"
+   * and "imaging", and "truth" only names .vol files to compare with. */
+  if (rc == 0) rc = read_acquisition(&jr, root, sc);
+  static const char *const replaced[] = {"medium", "imaging", NULL};
+  for (int k = 0; rc == 0 && sc->render_scene[0] && replaced[k]; ++k) {
+    if (jr_get(root, replaced[k]) != NULL) {
+      rc = jr_fail(&jr, replaced[k], "not used with acquisition.render_scene: the render scene "
+                   "describes the medium's grid, box and eta and the acquisition");
+    }
+  }
   if (rc == 0) rc = read_medium(&jr, root, sc);
   if (rc == 0) rc = read_truth(&jr, root, sc);
   if (rc == 0) rc = read_imaging(&jr, root, sc);
-  if (rc == 0) rc = read_acquisition(&jr, root, sc);
   const cJSON *e = NULL;
   if (rc == 0 && jr_object(&jr, root, "", "estimator", JR_OPTIONAL, &e) < 0) rc = -1;
   static const char *const est_allowed[] = {"photons", "batches", NULL};
@@ -336,7 +420,9 @@ static int parse_root(jr_t *jrp, cJSON *root, recon_scene_t *sc, char *msg, size
 }
 
 int recon_scene_check(const recon_scene_t *sc, char *msg, size_t n) {
-  if (sc->grid[0] != sc->grid[2] || (sc->grid[1] != 1 && sc->grid[1] != sc->grid[0])) {
+  /* From files the render scene's own checks hold for the grid and acquisition. */
+  const bool files = sc->render_scene[0] != '\0';
+  if (!files && (sc->grid[0] != sc->grid[2] || (sc->grid[1] != 1 && sc->grid[1] != sc->grid[0]))) {
     snprintf(msg, n, "medium.grid: %d x %d x %d; expected n x 1 x n (a section) or n x n x n", (int)sc->grid[0],
              (int)sc->grid[1], (int)sc->grid[2]);
     return -1;
@@ -348,7 +434,8 @@ int recon_scene_check(const recon_scene_t *sc, char *msg, size_t n) {
       return -1;
     }
   }
-  if (sc->grid[1] == 1 && (sc->source_faces | sc->camera_faces) & (1u << HETINV_FACE_Y_MIN | 1u << HETINV_FACE_Y_MAX)) {
+  /* From files "imaging" is refused, so its defaults (which pass) are checked below. */
+  if (!files && (sc->grid[1] == 1 && (sc->source_faces | sc->camera_faces) & (1u << HETINV_FACE_Y_MIN | 1u << HETINV_FACE_Y_MAX))) {
     snprintf(msg, n, "imaging: a 2D section has no sources or cameras on y_min / y_max");
     return -1;
   }
@@ -404,8 +491,12 @@ int recon_scene_check(const recon_scene_t *sc, char *msg, size_t n) {
 
 hetinv_result_t recon_medium_create(hetinv_context_t *ctx, const recon_scene_t *sc, hetinv_medium_t **out) {
   double lo[3] = {0, 0, 0}, hi[3] = {sc->size, sc->size, sc->size};
+  if (sc->has_box) {
+    memcpy(lo, sc->box_min, sizeof lo);
+    memcpy(hi, sc->box_max, sizeof hi);
+  }
   hetinv_result_t r = hetinv_medium_create(ctx, lo, hi, sc->grid, out);
-  if (r == HETINV_SUCCESS) r = hetinv_medium_set_ior(*out, sc->eta, 1.0);
+  if (r == HETINV_SUCCESS) r = hetinv_medium_set_ior(*out, sc->eta, sc->has_box ? sc->eta_out : 1.0);
   if (r != HETINV_SUCCESS) hetinv_medium_destroy(out);
   return r;
 }

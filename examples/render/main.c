@@ -3,7 +3,7 @@
  * OpenEXR stacks with PNG previews; prints totals, as JSON on request.
  *
  *   usage: hetinv-render scene.json [-o outdir] [--photons N] [--seed S]
- *                        [--threads T] [--totals-json] [--quiet]
+ *                        [--threads T] [--totals-json] [--write-medium] [--quiet]
  *
  * Exit status: 0 success; 1 a malformed scene or a failed render or write
  * (the message names the field or file); 2 a usage error.
@@ -20,18 +20,19 @@
 
 static const char *const usage_text =
     "usage: hetinv-render scene.json [-o outdir] [--photons N] [--seed S] [--threads T]\n"
-    "                     [--totals-json] [--quiet]\n"
+    "                     [--totals-json] [--write-medium] [--quiet]\n"
     "  -o, --output DIR  folder of the images (created; default out/<scene name>)\n"
     "  --photons N       photons per emitter (overrides the scene's \"photons\")\n"
     "  --seed S          base random seed, 0 to 2^64-1 (overrides \"seed\")\n"
     "  --threads T       worker threads, 0 for all (overrides \"threads\")\n"
     "  --totals-json     print the totals as JSON on stdout (other messages go to stderr)\n"
+    "  --write-medium    also write the medium as medium_<param>.vol (a truth to compare with)\n"
     "  --quiet           print nothing but errors (and the JSON)\n"
     "The scene format is described in docs/scene-format.md.\n";
 
 typedef struct options {
   const char *scene, *outdir;
-  int has_photons, has_seed, has_threads, totals_json, quiet;
+  int has_photons, has_seed, has_threads, totals_json, quiet, write_medium;
   unsigned long long photons, seed, threads;
 } options_t;
 
@@ -70,6 +71,10 @@ static int parse_options(int argc, char **argv, options_t *o) {
     }
     if (strcmp(arg, "--totals-json") == 0) {
       o->totals_json = 1;
+      continue;
+    }
+    if (strcmp(arg, "--write-medium") == 0) {
+      o->write_medium = 1;
       continue;
     }
     if (strcmp(arg, "--quiet") == 0 || strcmp(arg, "-q") == 0) {
@@ -130,6 +135,19 @@ static void default_outdir(const char *scene, char *out, size_t size) {
   snprintf(out, size, "out/%.*s", (int)n, base);
 }
 
+/* The scene's medium as outdir/medium_<param>.vol: a rendered truth that a
+ * reconstruction from the images can be compared with. */
+static int write_medium(const scene_t *sc, hetinv_context_t *ctx, const char *outdir, FILE *log, jr_t *jr) {
+  char path[4200];
+  for (int p = 0; p < HETINV_PARAM_COUNT; ++p) {
+    snprintf(path, sizeof path, "%s/medium_%s.vol", outdir, hetinv_param_name(p));
+    hetinv_result_t r = hetinv_medium_write_vol(sc->medium, p, path);
+    if (r != HETINV_SUCCESS) return scene_lib_fail(jr, path, ctx, r);
+  }
+  if (log != NULL) fprintf(log, "wrote %s/medium_{sigma_a,sigma_s,g}.vol\n", outdir);
+  return 0;
+}
+
 int main(int argc, char **argv) {
   options_t opt;
   int status = parse_options(argc, argv, &opt);
@@ -170,7 +188,7 @@ int main(int argc, char **argv) {
    * before the render (released by the kernel however the process ends). */
   int images = 0;
   for (int i = 0; i < sc.row_count; ++i) images |= sc.sensors[sc.rows[i].sensor].kind == SENSOR_ORTHOGRAPHIC;
-  if (images && outdir_open(&dir, "hetinv-render", outdir) != 0) goto done;
+  if ((images || opt.write_medium) && outdir_open(&dir, "hetinv-render", outdir) != 0) goto done;
 
   r = hetinv_estimator_create(ctx, &est);
   if (r != HETINV_SUCCESS) {
@@ -214,6 +232,7 @@ int main(int argc, char **argv) {
   }
 
   if (images && output_write_images(&sc, ctx, &res, outdir, log, &jr) < 0) goto fail;
+  if (opt.write_medium && write_medium(&sc, ctx, outdir, log, &jr) < 0) goto fail;
   output_print_summary(&sc, &res, log);
   if (opt.totals_json && output_print_totals_json(&sc, &res, stdout) < 0) {
     fprintf(stderr, "hetinv-render: out of memory writing the totals\n");

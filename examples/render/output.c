@@ -138,7 +138,7 @@ static void set_attributes(attrs_t *a, const scene_t *sc, const render_result_t 
   scene_face_axes(s->face, &u, &v);
   attr_s(a, "hetinv:sensor", s->name);
   attr_s(a, "hetinv:sensorType", "orthographic");
-  attr_s(a, "hetinv:sensorFace", scene_face_names[s->face]);
+  attr_s(a, "hetinv:sensorFace", face_names[s->face]);
   attr_vec(a, "hetinv:sensorDirection", s->direction, 3);
   attr_vec(a, "hetinv:sensorOrigin", s->origin, 2);
   attr_vec(a, "hetinv:pixelSize", s->pixel_size, 2);
@@ -200,18 +200,9 @@ static int write_stack(const scene_t *sc, hetinv_context_t *ctx, const render_re
   const int32_t w = s->width, h = s->height;
   hetinv_image_t *img = NULL;
   hetinv_result_t r = hetinv_image_create(ctx, w, h, t->bins, &img);
-  const int wide = t->bins > 10000; /* names of equal length sort in bin order */
   for (int32_t b = 0; r == HETINV_SUCCESS && b < t->bins; ++b) {
     char name[32];
-    if (pl->steady) {
-      snprintf(name, sizeof name, "L");
-    } else {
-      if (wide) {
-        snprintf(name, sizeof name, "tau%05d", (int)b % 100000);
-      } else {
-        snprintf(name, sizeof name, "tau%04d", (int)b % 10000);
-      }
-    }
+    scene_channel_name(pl, b, name, sizeof name);
     r = hetinv_image_set_channel_name(img, b, name);
     float *px = hetinv_image_channel_data(img, b);
     const double *bin = src + t->offset + (size_t)b * (size_t)t->pixels;
@@ -325,7 +316,7 @@ void output_print_summary(const scene_t *sc, const render_result_t *res, FILE *l
   fprintf(log, "%llu photons in %.3g s on %d thread%s; per emitter: specular %.4g, absorbed %.4g "
           "+- %.2g, escaped", (unsigned long long)st->photons, st->seconds, (int)res->threads,
           res->threads == 1 ? "" : "s", st->specular, st->absorbed, st->absorbed_std_error);
-  for (int f = 0; f < 6; ++f) fprintf(log, " %s %.4g", scene_face_names[f], st->escaped[f]);
+  for (int f = 0; f < 6; ++f) fprintf(log, " %s %.4g", face_names[f], st->escaped[f]);
   if (st->truncated != 0.0) fprintf(log, ", truncated %.4g", st->truncated);
   fprintf(log, "\n");
 }
@@ -399,8 +390,8 @@ int output_print_totals_json(const scene_t *sc, const render_result_t *res, FILE
   cJSON *esc_err = esc ? cJSON_AddObjectToObject(stats, "escaped_std_error") : NULL;
   ok = ok && esc != NULL && esc_err != NULL;
   for (int f = 0; ok && f < 6; ++f) {
-    ok = cJSON_AddNumberToObject(esc, scene_face_names[f], st->escaped[f]) &&
-         cJSON_AddNumberToObject(esc_err, scene_face_names[f], st->escaped_std_error[f]);
+    ok = cJSON_AddNumberToObject(esc, face_names[f], st->escaped[f]) &&
+         cJSON_AddNumberToObject(esc_err, face_names[f], st->escaped_std_error[f]);
   }
   char *text = ok ? cJSON_Print(doc) : NULL;
   int status = text != NULL ? 0 : -1;

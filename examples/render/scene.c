@@ -9,8 +9,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-const char *const scene_face_names[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max", NULL};
-
 /* The members of "estimator" and the parameters they set (photons is top-level). */
 static const struct {
   const char *key;
@@ -303,6 +301,16 @@ int scene_configure_estimator(const scene_t *sc, hetinv_estimator_t *est,
     }
   }
   return 0;
+}
+
+void scene_channel_name(const scene_pathlength_t *pl, int32_t b, char *out, size_t size) {
+  if (pl->steady) {
+    snprintf(out, size, "L");
+  } else if (pl->count > 10000) {
+    snprintf(out, size, "tau%05d", (int)b % 100000);
+  } else {
+    snprintf(out, size, "tau%04d", (int)b % 10000);
+  }
 }
 
 void scene_destroy(scene_t *sc) {

@@ -12,6 +12,7 @@
 #include <hetinv/measurement.h>
 #include <hetinv/sampling.h>
 
+#include "faces.h"
 #include "jsonread.h"
 
 /** Members of "estimator": batches, roulette_weight, roulette_survival,
@@ -79,6 +80,11 @@ typedef struct scene {
   int32_t dims[3];
   const char *medium_kind; /* "uniform", "layers" or "vol" */
   hetinv_medium_t *medium;
+  /* Set before scene_build by a program that needs only the grid, box and
+   * η (hetinv-reconstruct reading measured files): .vol files are then
+   * read for their header alone and every voxel holds placeholder values
+   * (those of "uniform"/"layers"/"inclusions", 0 for a .vol parameter). */
+  int geometry_only;
 
   scene_emitter_t *emitters;
   int emitter_count;
@@ -90,9 +96,6 @@ typedef struct scene {
   int row_count;
   hetinv_measurements_t *set;
 } scene_t;
-
-/* Face names, indexed by enum hetinv_face_id, NULL-terminated. */
-extern const char *const scene_face_names[];
 
 /* Reads and parses the file and its run settings (photons, seed, threads,
  * estimator); creates no library object. On failure jr->message says why. */
@@ -109,6 +112,11 @@ int scene_build(scene_t *scene, hetinv_context_t *ctx, jr_t *jr);
  * or "--photons") and the scene's "estimator" parameters. */
 int scene_configure_estimator(const scene_t *scene, hetinv_estimator_t *estimator,
                               const char *photons_origin, jr_t *jr);
+
+/* The EXR channel name of bin b of a row whose pathlength has `bins` bins:
+ * "L" (steady state), "tau0000" ... ("tau00000" ... above 10000 bins, so
+ * that the names sort in bin order). */
+void scene_channel_name(const scene_pathlength_t *pl, int32_t b, char *out, size_t size);
 
 /* Releases everything (the context must still exist); safe on a zeroed scene. */
 void scene_destroy(scene_t *scene);

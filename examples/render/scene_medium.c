@@ -284,7 +284,9 @@ static int build_vol(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const cJSON *
   if (r != HETINV_SUCCESS) return scene_lib_fail(jr, has_box ? "box" : at, ctx, r);
   if (grids_alloc(jr, g, sc->dims) < 0) return -1;
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) {
-    if (is_file[p]) {
+    if (is_file[p] && sc->geometry_only) {
+      continue; /* the header gave the grid; the values are not wanted */
+    } else if (is_file[p]) {
       jr_key(at, "medium.vol", param_keys[p]);
       r = hetinv_medium_read_vol(sc->medium, p, files[p]);
       if (r != HETINV_SUCCESS) return scene_lib_fail(jr, at, ctx, r);

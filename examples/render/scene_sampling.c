@@ -150,7 +150,7 @@ static int build_emitter(scene_t *sc, jr_t *jr, const cJSON *item, const char *a
   }
   e->type = types[type];
   e->json = item;
-  int has_face = jr_choice(jr, item, at, "face", type == 1 || type == 2, scene_face_names, &face);
+  int has_face = jr_choice(jr, item, at, "face", type == 1 || type == 2, face_names, &face);
   if (has_face < 0) return -1;
   double lo[2] = {0, 0}, hi[2] = {0, 0}, point[2] = {0, 0}, dir[3] = {0, 0, 0}, origin[3];
   if (has_face) {
@@ -327,7 +327,7 @@ static int build_sensor(scene_t *sc, jr_t *jr, const cJSON *item, const char *at
   if (jr_choice(jr, item, at, "type", JR_REQUIRED, types, &type) < 0 ||
       jr_check_object(jr, item, at, type == 0 ? ortho_keys : hemi_keys) < 0 ||
       read_name(jr, item, at, "sensor", (int)(s - sc->sensors), sc->sensors, sizeof *s, s->name) < 0 ||
-      jr_choice(jr, item, at, "face", JR_REQUIRED, scene_face_names, &face) < 0) {
+      jr_choice(jr, item, at, "face", JR_REQUIRED, face_names, &face) < 0) {
     return -1;
   }
   s->kind = (scene_sensor_kind_t)type;

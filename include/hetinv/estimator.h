@@ -262,19 +262,119 @@ HETINV_API hetinv_result_t hetinv_estimator_jvp(hetinv_estimator_t *estimator,
  * Σ_n mask_n·w_n·(I_n − Ī_n)² with the set's measured values Ī, weights w
  * and mask, then estimates its gradient from independent paths of stream
  * (s + 1) mod 65536, with cotangent 2·mask·w·(I − Ī) (Eqs. 21–22).
+ * With a calibration gain (hetinv_estimator_set_gain_mode()) the model is
+ * k·I: the loss is min over k of Σ_n mask_n·w_n·(k_n·I_n − Ī_n)², k_n the
+ * gain of value n's emitter (or the one global gain), and the cotangent
+ * 2·mask·w·k·(k·I − Ī); the gains are then read with
+ * hetinv_estimator_get_gains(). Masked values (mask 0) and values of
+ * weight 0 enter neither the loss, nor the gradient, nor the gains.
  * @param estimator the estimator.
  * @param medium committed medium.
  * @param set the measurement set holding the measured values.
  * @param map parameter map made for the medium's grid.
  * @param[out] loss receives the loss; may be NULL.
- * @param[out] rendered receives the rendered values (value_count); may be NULL.
+ * @param[out] rendered receives the rendered values I (value_count; the
+ *        model's, not multiplied by a gain); may be NULL.
  * @param[out] grad receives hetinv_param_map_size(map) values.
  * @param grad_count length of @p grad.
- * @return as hetinv_estimator_gradient().
+ * @return as hetinv_estimator_gradient(), plus HETINV_ERROR_OUT_OF_MEMORY
+ *         for the gains.
  */
 HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
     hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
     const hetinv_param_map_t *map, double *loss, double *rendered, double *grad, size_t grad_count);
+
+/** A calibration-gain mode: a value of enum hetinv_gain_mode_id. */
+typedef int32_t hetinv_gain_mode_t;
+
+/** How hetinv_estimator_loss_gradient() treats the instrument's unknown
+ *  scale. Pinned values. */
+enum hetinv_gain_mode_id {
+  /** The measured values are in the model's units (the default; the loss is
+   *  exactly that of Eq. 9). */
+  HETINV_GAIN_NONE = 0,
+  /** One unknown gain k for the whole set: the measurements are k times the
+   *  model's values. */
+  HETINV_GAIN_GLOBAL = 1,
+  /** One unknown gain per emitter (a source whose power or coupling is not
+   *  known): emitter e is the e-th distinct emitter of the set in order of
+   *  its first row (hetinv_measurements_add()). */
+  HETINV_GAIN_PER_EMITTER = 2
+};
+
+/**
+ * @brief Estimate an unknown calibration gain jointly with the volume.
+ *
+ * Real measurements are often known only up to a scale: detector gain,
+ * source power, fibre coupling. With a gain mode other than
+ * HETINV_GAIN_NONE, hetinv_estimator_loss_gradient() scales the *model*
+ * (not the measurements: the weights stay those of the measured values, and
+ * the recovered volume is in the model's units) by the gain that fits best:
+ * for the loss L(k) = Σ_n mask_n·w_n·(k·I_n − Ī_n)² over the values sharing
+ * the gain,
+ *     k* = max(0, Σ mask·w·I·Ī / Σ mask·w·I²),
+ * in closed form at every call (variable projection); k* = 0 when no used
+ * value renders any light (the denominator is 0). A negative fit (noise
+ * only) is clamped to 0, the least-squares gain among physical ones.
+ *
+ * Gradient: k* minimises L(k, π), so (envelope theorem) the gradient of
+ * L(k*(π), π) with respect to π is ∂L/∂π at fixed k = k*:
+ * Σ_n 2·mask·w·k*·(k*·I_n − Ī_n)·∂I_n/∂π, with no term through the
+ * dependence of k* on π.
+ *
+ * Bias: k* and the residuals come from the render of stream s, the
+ * Jacobian from the independent stream s + 1, as without a gain. The
+ * gradient is then unbiased for ∂L/∂π at the gain the render estimates,
+ * but that gain is a ratio of noisy sums: E[k̂·(k̂·I − Ī)] differs from
+ * k*·(k*·E[I] − Ī) by terms of the order of the renders' relative variance
+ * (1/photons), as the loss itself (min over k of a noisy loss is biased
+ * low by the same order). The bias vanishes as photons grow: on the
+ * problem of the loss-gradient validation test it is +16 % of one entry at
+ * 200 photons per call and +1 % at 3200 (docs/results/gain.md). Fitting k
+ * on another stream would not remove it (E[k̂²] ≠ E[k̂]²): measured, it
+ * halves the bias and multiplies the gradient's variance by 3.6.
+ *
+ * The gains are fitted on the set passed to each call: the optimizer's
+ * minibatches see only their emitters' values, so a global gain is then
+ * fitted per minibatch. hetinv_estimator_render(), hetinv_estimator_gradient(),
+ * hetinv_estimator_jvp() and the bound (hetinv/bound.h) ignore the mode. The
+ * mode is not part of an optimizer checkpoint's fingerprint.
+ * @param estimator the estimator.
+ * @param mode HETINV_GAIN_NONE, HETINV_GAIN_GLOBAL or HETINV_GAIN_PER_EMITTER.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
+ *         (mode). Gains of an earlier call are forgotten.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_set_gain_mode(hetinv_estimator_t *estimator,
+                                                          hetinv_gain_mode_t mode);
+
+/**
+ * @brief The calibration-gain mode.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_get_gain_mode(const hetinv_estimator_t *estimator,
+                                                          hetinv_gain_mode_t *mode);
+
+/**
+ * @brief The gains fitted by the last successful hetinv_estimator_loss_gradient().
+ *
+ * Multiply a rendered value by its gain to compare it with the measured
+ * value (measurement units per model unit).
+ * @param estimator the estimator.
+ * @param[out] gains receives the gains: one (HETINV_GAIN_GLOBAL) or one per
+ *        emitter of the set of that call, in the order of
+ *        HETINV_GAIN_PER_EMITTER. May be NULL when @p capacity is 0 (to ask
+ *        for the count).
+ * @param capacity length of @p gains.
+ * @param[out] count receives the number of gains; may be NULL.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_STATE (mode HETINV_GAIN_NONE, or no
+ *         successful loss gradient since the mode was set);
+ *         HETINV_ERROR_INVALID_ARGUMENT (@p capacity smaller than the count
+ *         and not 0).
+ */
+HETINV_API hetinv_result_t hetinv_estimator_get_gains(const hetinv_estimator_t *estimator,
+                                                      double *gains, size_t capacity,
+                                                      size_t *count);
 
 /**
  * @brief Statistics of the last successful render.

@@ -129,6 +129,27 @@ HETINV_API hetinv_result_t hetinv_measurements_set_weights(hetinv_measurements_t
 HETINV_API hetinv_result_t hetinv_measurements_set_mask(hetinv_measurements_t *set,
                                                         const uint8_t *mask, size_t count);
 
+/**
+ * @brief Mask out saturated values: every value whose measured value is at
+ *        or above @p level gets mask byte 0 (left out of the loss, its
+ *        gradient and a calibration gain); the other mask bytes are kept.
+ *
+ * For a detector that clips at its full well or ADC maximum, pass that
+ * level after hetinv_measurements_set_values(); for dead or hot pixels
+ * build a mask and use hetinv_measurements_set_mask() (a masked value may
+ * hold any finite number, e.g. 0). A weight of 0 has the same effect as a
+ * mask byte of 0 on the loss. The mask is ANDed: call it again after
+ * setting new values to mask those too.
+ * @param set the set.
+ * @param level the saturation level, not NaN (+inf masks nothing).
+ * @param[out] masked receives the number of values at or above @p level
+ *        (whether or not they were masked already); may be NULL.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (level NaN). Nothing changes on failure.
+ */
+HETINV_API hetinv_result_t hetinv_measurements_mask_saturated(hetinv_measurements_t *set,
+                                                              double level, size_t *masked);
+
 /** @brief Measured values (value_count), owned by the set; NULL for NULL or an empty set. */
 HETINV_API const double *hetinv_measurements_values(const hetinv_measurements_t *set);
 /** @brief Standard errors of the measured values, like hetinv_measurements_values(). */

@@ -273,6 +273,77 @@ HETINV_API hetinv_result_t hetinv_pathlength_create_bins(hetinv_context_t *ctx,
                                                          const double *centres, double width,
                                                          hetinv_pathlength_t **out);
 
+/** Most samples of an instrument response function: 65536. */
+#define HETINV_MAX_IRF_SAMPLES 65536
+
+/** Speed of light in vacuum, c₀, in millimetres per picosecond. */
+#define HETINV_SPEED_OF_LIGHT_MM_PER_PS 0.299792458
+
+/**
+ * @brief Pathlength bins seen through an instrument response function (IRF),
+ *        for time-resolved data.
+ *
+ * A real detector smears the arrival time of the light: the measured
+ * transient is the true one convolved with the instrument's response h. The
+ * IRF is given as samples h_j at pathlength offsets d_j (convert a time axis
+ * with hetinv_irf_offsets_from_times()); the samples are normalised to sum 1
+ * (an IRF redistributes light in time, it does not scale it: an unknown
+ * scale is the calibration gain, see hetinv_estimator_set_gain_mode()). A
+ * photon of pathlength τ is seen at τ + d_j with weight h_j, so bin b's
+ * window becomes
+ *     W'_b(τ) = Σ_j h_j · W_b(τ + d_j),
+ * the convolution of the bin's window with the IRF, applied to each path as
+ * it is scored. This is exact for any offsets (they need not be multiples of
+ * the bin spacing, nor the bins evenly spaced), it sees light from
+ * pathlengths outside the bins' own range (which a convolution of the
+ * rendered bins would miss at the edges), and the forward, gradient,
+ * tangent (J·v) and Fisher passes all use the same windows, so the
+ * gradient is that of the convolved values with no extra step. A positive
+ * offset delays: the IRF of a detector that reports light late has its
+ * mass at d > 0. Samples of zero are dropped; a single sample (a delta)
+ * at offset 0 gives exactly, bit for bit, the values of
+ * hetinv_pathlength_create_bins(). Scoring costs one bin search per kept
+ * sample: an IRF of J non-zero samples makes every splat about J times as
+ * expensive (subsample a finely sampled IRF to the bin width or so).
+ * @param ctx the context.
+ * @param window, count, centres, width the bins, as for hetinv_pathlength_create_bins().
+ * @param irf_count number of IRF samples, in [1, HETINV_MAX_IRF_SAMPLES].
+ * @param irf_offsets irf_count finite pathlength offsets d_j (the medium's
+ *        length unit; any sign, any order). Copied.
+ * @param irf_samples irf_count finite samples h_j ≥ 0 with a finite sum
+ *        > 0 (clip a background-subtracted IRF at 0). Copied.
+ * @param[out] out receives the handle; NULL on failure.
+ * @return as hetinv_pathlength_create_bins(), plus
+ *         HETINV_ERROR_INVALID_ARGUMENT naming the IRF sample or the sum.
+ */
+HETINV_API hetinv_result_t hetinv_pathlength_create_bins_irf(
+    hetinv_context_t *ctx, hetinv_window_t window, int32_t count, const double *centres,
+    double width, int32_t irf_count, const double *irf_offsets, const double *irf_samples,
+    hetinv_pathlength_t **out);
+
+/**
+ * @brief Converts times of flight in picoseconds into pathlengths inside the
+ *        medium: τ = c₀·t / η, in the medium's length unit.
+ *
+ * For an IRF's time axis (offsets of hetinv_pathlength_create_bins_irf()),
+ * and equally for bin centres and widths given in time. c₀ is
+ * HETINV_SPEED_OF_LIGHT_MM_PER_PS; η is the medium's refractive index (the
+ * group index for a dispersive medium); @p length_unit_mm says how long the
+ * medium's length unit is: 1 if the medium's coordinates are millimetres,
+ * 10 for centimetres, 1000 for metres. Thread-safe; needs no context.
+ * @param times_ps @p count finite times in picoseconds (any sign).
+ * @param count number of times; 0 does nothing.
+ * @param eta refractive index, finite and ≥ 1.
+ * @param length_unit_mm length of the medium's unit in mm, finite and > 0.
+ * @param[out] pathlengths receives @p count values; may be @p times_ps itself.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_INVALID_ARGUMENT
+ *         (eta, unit, a non-finite time or result, named by its index).
+ *         Nothing is written on failure.
+ */
+HETINV_API hetinv_result_t hetinv_irf_offsets_from_times(const double *times_ps, size_t count,
+                                                         double eta, double length_unit_mm,
+                                                         double *pathlengths);
+
 /** @brief Number of bins (1 for steady state); 0 for NULL. */
 HETINV_API int32_t hetinv_pathlength_bin_count(const hetinv_pathlength_t *pathlength);
 

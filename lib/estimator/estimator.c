@@ -44,6 +44,7 @@ HETINV_API hetinv_result_t hetinv_estimator_create(hetinv_context_t *ctx, hetinv
 HETINV_API void hetinv_estimator_destroy(hetinv_estimator_t **estimator) {
   HV_API_ENTER();
   if (estimator == NULL || *estimator == NULL) return;
+  hv_free((*estimator)->ctx, (*estimator)->gains);
   hv_free((*estimator)->ctx, *estimator);
   *estimator = NULL;
 }

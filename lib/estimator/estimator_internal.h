@@ -11,6 +11,11 @@ struct hetinv_estimator {
   double param[HETINV_ESTIMATOR_PARAM_COUNT_];
   bool has_stats;
   hetinv_render_stats_t stats;
+  /* Calibration gain (gain.c): the mode, and the gains of the last
+   * successful loss gradient (gain_count 0: none). */
+  hetinv_gain_mode_t gain_mode;
+  double *gains;
+  size_t gain_count, gain_capacity;
 };
 
 /* "HETINV_ESTIMATOR_PHOTONS", ..., for messages of other modules. */

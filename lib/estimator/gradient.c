@@ -7,6 +7,7 @@
 #include "core/comm.h"
 #include "core/error.h"
 #include "estimator/batches.h"
+#include "estimator/gain.h"
 #include "estimator/pass.h"
 #include "estimator/record.h"
 #include "hetinv/param.h"
@@ -306,6 +307,7 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
     hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
     const hetinv_param_map_t *map, double *loss, double *rendered, double *grad, size_t grad_count) {
   HV_API_ENTER();
+  if (estimator) estimator->gain_count = 0; /* a failed call leaves no stale gains */
   hv_pass_t pass;
   hetinv_result_t r = hv_pass_begin(estimator, medium, set, set ? set->value_count : 0, &pass);
   if (r != HETINV_SUCCESS) return r;
@@ -320,13 +322,17 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
   if (r == HETINV_SUCCESS) {
     /* I from stream s; the gradient from the independent stream s + 1. */
     r = hv_forward_run(estimator, &pass, values, NULL, NULL, n);
-    if (r == HETINV_SUCCESS) {
-      double sum = 0.0;
+    double sum = 0.0;
+    if (r == HETINV_SUCCESS && estimator->gain_mode != HETINV_GAIN_NONE) {
+      r = hv_gain_fit(estimator, &pass, set, values, cot, &sum);
+    } else if (r == HETINV_SUCCESS) {
       for (size_t i = 0; i < n; ++i) {
         double res = set->mask[i] ? set->weights[i] * (values[i] - set->values[i]) : 0.0;
         sum += res * (values[i] - set->values[i]);
         cot[i] = 2.0 * res;
       }
+    }
+    if (r == HETINV_SUCCESS) {
       if (loss) *loss = sum;
       if (rendered) memcpy(rendered, values, n * sizeof(double));
       pass.stream = (pass.stream + 1) % HV_RNG_STREAM_LIMIT;
@@ -336,5 +342,6 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
   hv_free(ctx, values);
   hv_free(ctx, cot);
   hv_pass_end(&pass);
+  if (r != HETINV_SUCCESS) estimator->gain_count = 0;
   return r;
 }

@@ -75,7 +75,7 @@ static void stage_value_mask(const hetinv_measurements_t *set, double h, int32_t
       /* Mirror image of the sensor below the layer: the shortest path in. */
       double shortest = sqrt(d2 + depth2 * depth2);
       for (int32_t i = 0; i < pl->count; ++i) {
-        if (pl->sorted[i] + pl->reach <= shortest) {
+        if (pl->sorted[i] + pl->reach + pl->late <= shortest) { /* late: an IRF's early taps */
           mask[row->offset + (size_t)pl->bin_of[i] * (size_t)row->pixels + (size_t)p] = 1;
         }
       }

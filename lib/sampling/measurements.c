@@ -217,6 +217,24 @@ HETINV_API hetinv_result_t hetinv_measurements_set_mask(hetinv_measurements_t *s
   return HETINV_SUCCESS;
 }
 
+HETINV_API hetinv_result_t hetinv_measurements_mask_saturated(hetinv_measurements_t *set,
+                                                              double level, size_t *masked) {
+  HV_API_ENTER();
+  HV_CHECK_NULL(NULL, set);
+  if (isnan(level)) {
+    return HV_FAIL(set->ctx, HETINV_ERROR_INVALID_ARGUMENT, "level is %g; it must not be NaN", level);
+  }
+  size_t n = 0;
+  for (size_t i = 0; i < set->value_count; ++i) {
+    if (set->values[i] >= level) {
+      set->mask[i] = 0;
+      ++n;
+    }
+  }
+  if (masked) *masked = n;
+  return HETINV_SUCCESS;
+}
+
 HETINV_API const double *hetinv_measurements_values(const hetinv_measurements_t *set) {
   HV_API_ENTER();
   return set && set->value_count ? set->values : NULL;

@@ -14,6 +14,8 @@ HETINV_API void hetinv_pathlength_destroy(hetinv_pathlength_t **pathlength) {
   hetinv_pathlength_t *p = *pathlength;
   hv_free(p->ctx, p->sorted);
   hv_free(p->ctx, p->bin_of);
+  hv_free(p->ctx, p->tap_offset);
+  hv_free(p->ctx, p->tap_weight);
   hv_free(p->ctx, p);
   *pathlength = NULL;
 }

@@ -1,6 +1,7 @@
 /* Allocation failure, systematically: every scenario below (a medium and
  * the volume generators, every kind of emitter, sensor and pathlength
- * function, a measurement set, renders and gradients with one and two
+ * function (an IRF's too), a measurement set, renders and gradients (and a
+ * loss with calibration gains) with one and two
  * threads, an optimizer run that writes a checkpoint and a second optimizer
  * that resumes it, layer-wise stages, EXR, .vol and PNG files) is first run once
  * through a counting allocator to learn its N allocations, then N more times
@@ -299,7 +300,7 @@ static bool scenario_sampling(void) {
   hetinv_medium_t *m = NULL;
   hetinv_emitter_t *kept[4] = {NULL}, *e = NULL;
   hetinv_sensor_t *skept[2] = {NULL}, *s = NULL;
-  hetinv_pathlength_t *pkept[2] = {NULL}, *p = NULL;
+  hetinv_pathlength_t *pkept[3] = {NULL}, *p = NULL;
   hetinv_measurements_t *set = NULL;
   int stage = 0; /* which handle the failed step was creating */
   int32_t rows_before = 0;
@@ -346,23 +347,26 @@ static bool scenario_sampling(void) {
       s = NULL;
     }
   }
-  for (int k = 0; k < 2; ++k) {
+  for (int k = 0; k < 3; ++k) {
     for (int twice = 0; twice < 2; ++twice) {
       stage = 7 + k;
       p = pkept[k];
       if (k == 0) {
         STEP(hetinv_pathlength_create_steady(ctx, &p));
-      } else {
+      } else if (k == 1) {
         STEP(hetinv_pathlength_create_bins(ctx, HETINV_WINDOW_GAUSSIAN, 3, (double[]){2, 1, 3}, 0.5, &p));
+      } else { /* through an instrument response (its taps are allocated too) */
+        STEP(hetinv_pathlength_create_bins_irf(ctx, HETINV_WINDOW_BOX, 3, (double[]){2, 1, 3}, 1.0, 3,
+                                               (double[]){-0.5, 0, 0.7}, (double[]){1, 0, 2}, &p));
       }
       if (twice == 0) pkept[k] = p; else hetinv_pathlength_destroy(&p);
       p = NULL;
     }
   }
-  stage = 9;
+  stage = 11;
   STEP(hetinv_measurements_create(ctx, &set));
   /* 2 emitters x 2 sensors x 2 pathlengths, and again: 16 rows, 96 values (grows both). */
-  stage = 10;
+  stage = 12;
   for (int round = 0; round < 2; ++round) {
     for (int k = 0; k < 4; ++k) {
       for (int j = 0; j < 2; ++j) {
@@ -378,8 +382,8 @@ failed:
     /* The failed create's output is NULL; the object it held is alive. */
     if (stage >= 1 && stage <= 4) CHECK(e == NULL);
     if (stage >= 5 && stage <= 6) CHECK(s == NULL);
-    if (stage >= 7 && stage <= 8) CHECK(p == NULL);
-    if (stage == 10) {
+    if (stage >= 7 && stage <= 9) CHECK(p == NULL);
+    if (stage == 12) {
       CHECK(hetinv_measurements_row_count(set) == rows_before);
       CHECK(hetinv_measurements_value_count(set) == values_before);
     }
@@ -400,7 +404,7 @@ failed:
     for (int j = 0; j < 2; ++j) {
       if (skept[j] != NULL) CHECK(hetinv_sensor_pixel_count(skept[j]) == (j == 0 ? 4 : 1));
     }
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < 3; ++k) {
       if (pkept[k] != NULL) CHECK(hetinv_pathlength_bin_count(pkept[k]) == (k == 0 ? 1 : 3));
     }
     hetinv_measurements_destroy(&probe);
@@ -408,7 +412,7 @@ failed:
   hetinv_measurements_destroy(&set);
   for (int k = 0; k < 4; ++k) hetinv_emitter_destroy(&kept[k]);
   for (int k = 0; k < 2; ++k) hetinv_sensor_destroy(&skept[k]);
-  for (int k = 0; k < 2; ++k) hetinv_pathlength_destroy(&pkept[k]);
+  for (int k = 0; k < 3; ++k) hetinv_pathlength_destroy(&pkept[k]);
   hetinv_medium_destroy(&m);
   hetinv_context_destroy(&ctx);
   return done;
@@ -470,6 +474,9 @@ static bool scenario_gradient(void) {
   held = NULL;
   STEP(hetinv_estimator_gradient(sc.est, sc.medium, sc.set, cot, SCENE_VALUES, ident, grad, gerr, 12));
   STEP(hetinv_estimator_gradient(sc.est, sc.medium, sc.set, cot, SCENE_VALUES, coarse, grad, NULL, 3));
+  STEP(hetinv_estimator_loss_gradient(sc.est, sc.medium, sc.set, bcast, &loss, rendered, grad, 2));
+  /* with a calibration gain per emitter (the gains are allocated) */
+  STEP(hetinv_estimator_set_gain_mode(sc.est, HETINV_GAIN_PER_EMITTER));
   STEP(hetinv_estimator_loss_gradient(sc.est, sc.medium, sc.set, bcast, &loss, rendered, grad, 2));
   DONE;
 failed:

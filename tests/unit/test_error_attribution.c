@@ -251,6 +251,14 @@ static void test_context_medium_and_sampling(fixture_t *f) {
   hetinv_pathlength_t *p = NULL;
   EXPECT_FAIL(hetinv_pathlength_create_steady, (ctx, NULL));
   EXPECT_FAIL(hetinv_pathlength_create_bins, (ctx, HETINV_WINDOW_BOX, 0, NULL, 1.0, &p));
+  /* check_irf, a helper */
+  EXPECT_FAIL(hetinv_pathlength_create_bins_irf, (ctx, HETINV_WINDOW_BOX, 1, (double[]){1}, 1.0, 1,
+                                                  (double[]){0}, (double[]){(double)NAN}, &p));
+  /* the bins' own check, in the public function it calls */
+  EXPECT_FAIL(hetinv_pathlength_create_bins_irf, (ctx, HETINV_WINDOW_BOX, 1, (double[]){1}, -1.0, 1,
+                                                  (double[]){0}, (double[]){1}, &p));
+  double path[1];
+  EXPECT_FAIL(hetinv_irf_offsets_from_times, ((double[]){(double)NAN}, 1, 1.0, 1.0, path));
 
   hetinv_measurements_t *set = NULL;
   EXPECT_FAIL(hetinv_measurements_create, (NULL, &set));
@@ -269,6 +277,7 @@ static void test_context_medium_and_sampling(fixture_t *f) {
   double weights[9] = {1, 1, 1, 1, 1, 1, 1, 1, -1};
   EXPECT_FAIL(hetinv_measurements_set_weights, (f->set, weights, 9));
   EXPECT_FAIL(hetinv_measurements_set_mask, (f->set, NULL, 9));
+  EXPECT_FAIL(hetinv_measurements_mask_saturated, (f->set, (double)NAN, NULL));
 }
 
 static void test_acquire_and_param(fixture_t *f) {
@@ -320,6 +329,9 @@ static void test_estimator(fixture_t *f) {
   assert_ok(hetinv_estimator_create(f->ctx, &e));
   EXPECT_FAIL(hetinv_estimator_get_stats, (e, &stats));
   hetinv_estimator_destroy(&e);
+  EXPECT_FAIL(hetinv_estimator_set_gain_mode, (f->estimator, (hetinv_gain_mode_t)7));
+  EXPECT_FAIL(hetinv_estimator_get_gain_mode, (f->estimator, NULL));
+  EXPECT_FAIL(hetinv_estimator_get_gains, (f->estimator, NULL, 0, NULL)); /* mode none */
   size_t n = 9;
   double values[9], cot[9] = {0}, grad[24], loss;
   /* hv_pass_begin: an uncommitted medium */

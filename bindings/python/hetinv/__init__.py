@@ -29,6 +29,7 @@ from ._names import (
     COORDINATES_NATIVE, COORDINATES_REDUCED,
     FACE_X_MAX, FACE_X_MIN, FACE_Y_MAX, FACE_Y_MIN, FACE_Z_MAX, FACE_Z_MIN,
     FREE_ALL, FREE_G, FREE_SIGMA_A, FREE_SIGMA_S,
+    GAIN_GLOBAL, GAIN_NONE, GAIN_PER_EMITTER,
     METHOD_ADADELTA, METHOD_ADAGRAD, METHOD_ADAM, METHOD_SGD,
     PARAM_G, PARAM_SIGMA_A, PARAM_SIGMA_S,
     WINDOW_BOX, WINDOW_GAUSSIAN,
@@ -36,7 +37,7 @@ from ._names import (
 from ._structs import MixtureSpec, NoiseModel, RenderStats, SmokeSpec, VolHeader
 from .context import Context
 from .medium import Medium, param_name, vol_read, vol_read_header, vol_write
-from .sampling import Emitter, Pathlength, Sensor
+from .sampling import Emitter, Pathlength, Sensor, irf_offsets_from_times
 from .measurements import Measurements
 from .param import ParamMap
 from .estimator import Bound, Estimator, Fisher, Gradient, LossGradient, Render, estimator_param_bounds

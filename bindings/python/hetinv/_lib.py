@@ -91,6 +91,9 @@ PROTOTYPES = {
     "hetinv_sensor_destroy": (None, [c_void_pp]),
     "hetinv_pathlength_create_steady": (_R, [_vp, c_void_pp]),
     "hetinv_pathlength_create_bins": (_R, [_vp, _i32, _i32, c_double_p, _d, c_void_pp]),
+    "hetinv_pathlength_create_bins_irf": (_R, [_vp, _i32, _i32, c_double_p, _d, _i32, c_double_p,
+                                              c_double_p, c_void_pp]),
+    "hetinv_irf_offsets_from_times": (_R, [c_double_p, _sz, _d, _d, c_double_p]),
     "hetinv_pathlength_bin_count": (_i32, [_vp]),
     "hetinv_pathlength_destroy": (None, [c_void_pp]),
     # measurement.h
@@ -103,6 +106,7 @@ PROTOTYPES = {
     "hetinv_measurements_set_values": (_R, [_vp, c_double_p, c_double_p, _sz]),
     "hetinv_measurements_set_weights": (_R, [_vp, c_double_p, _sz]),
     "hetinv_measurements_set_mask": (_R, [_vp, c_uint8_p, _sz]),
+    "hetinv_measurements_mask_saturated": (_R, [_vp, _d, c_size_t_p]),
     "hetinv_measurements_values": (c_double_p, [_vp]),
     "hetinv_measurements_std_errors": (c_double_p, [_vp]),
     "hetinv_measurements_weights": (c_double_p, [_vp]),
@@ -119,6 +123,9 @@ PROTOTYPES = {
     "hetinv_estimator_loss_gradient": (_R, [_vp, _vp, _vp, _vp, c_double_p, c_double_p,
                                             c_double_p, _sz]),
     "hetinv_estimator_get_stats": (_R, [_vp, ctypes.POINTER(RenderStats)]),
+    "hetinv_estimator_set_gain_mode": (_R, [_vp, _i32]),
+    "hetinv_estimator_get_gain_mode": (_R, [_vp, c_int32_p]),
+    "hetinv_estimator_get_gains": (_R, [_vp, c_double_p, _sz, c_size_t_p]),
     "hetinv_estimator_jvp": (_R, [_vp, _vp, _vp, _vp, c_double_p, _sz, c_double_p, c_double_p, _sz]),
     # bound.h
     "hetinv_estimator_fisher": (_R, [_vp, _vp, _vp, c_double_p, _sz, _vp, _i32, c_double_p,

@@ -16,6 +16,10 @@ FREE_ALL = 7
 ESTIMATOR_PARAMS = {"photons": 0, "batches": 1, "roulette_weight": 2, "roulette_survival": 3,
                     "min_scattering": 4, "max_scattering": 5, "stream": 6, "epoch": 7}
 
+GAIN_NONE, GAIN_GLOBAL, GAIN_PER_EMITTER = 0, 1, 2
+GAIN_MODES = {"none": 0, "global": 1, "per_emitter": 2}
+GAIN_MODE_NAMES = {v: k for k, v in GAIN_MODES.items()}
+
 METHOD_ADADELTA, METHOD_SGD, METHOD_ADAGRAD, METHOD_ADAM = range(4)
 METHODS = {"adadelta": 0, "sgd": 1, "adagrad": 2, "adam": 3}
 

@@ -7,7 +7,7 @@ from ._args import integer, number
 from ._errors import check
 from ._handle import Handle, handle_arg, pinned
 from ._lib import lib
-from ._names import ESTIMATOR_PARAMS, lookup
+from ._names import ESTIMATOR_PARAMS, GAIN_MODE_NAMES, GAIN_MODES, lookup
 from ._structs import RenderStats
 
 
@@ -190,6 +190,28 @@ class Estimator(Handle):
         with pinned(self, medium, measurements, param_map):
             check(lib.estimator_loss_gradient(self._ptr, mp, sp, pm, ctypes.byref(loss), pr, pg, k))
         return LossGradient(loss.value, grad, rendered)
+
+    @property
+    def gain_mode(self):
+        """Calibration gain of loss_gradient: "none" (default), "global" or
+        "per_emitter" (settable by name or id). The model is scaled by the
+        least-squares gain at every call; read the gains with gains()."""
+        m = ctypes.c_int32()
+        check(lib.estimator_get_gain_mode(self._ptr, ctypes.byref(m)))
+        return GAIN_MODE_NAMES.get(m.value, m.value)
+
+    @gain_mode.setter
+    def gain_mode(self, mode):
+        check(lib.estimator_set_gain_mode(self._ptr, lookup(mode, GAIN_MODES, "gain mode")))
+
+    def gains(self):
+        """The gains fitted by the last loss_gradient: one (global) or one
+        per emitter of its set, in order of first use (flat array)."""
+        n = ctypes.c_size_t()
+        check(lib.estimator_get_gains(self._ptr, None, 0, ctypes.byref(n)))
+        out, po = _arrays.empty(n.value)
+        check(lib.estimator_get_gains(self._ptr, po, n.value, ctypes.byref(n)))
+        return out
 
     def stats(self):
         """RenderStats of the last render (photons, seconds, specular,

@@ -4,7 +4,7 @@ import ctypes
 import weakref
 
 from . import _arrays
-from ._args import integer
+from ._args import integer, number
 from ._errors import check
 from ._handle import Handle, handle_arg, _lock as _handle_lock
 from ._lib import lib
@@ -123,6 +123,14 @@ class Measurements(Handle):
         m = _arrays.to_c(mask, "B", name="mask")
         check(lib.measurements_set_mask(self._ptr, m.ptr, m.count))
         return self
+
+    def mask_saturated(self, level):
+        """Mask out (mask 0) every value whose measured value is at or above
+        `level`, keeping the rest of the mask; returns how many values are
+        at or above it."""
+        n = ctypes.c_size_t()
+        check(lib.measurements_mask_saturated(self._ptr, number(level, "level"), ctypes.byref(n)))
+        return n.value
 
     def _copy(self, fn, typecode):
         n = self.value_count

@@ -183,6 +183,36 @@ class Pathlength(Handle):
                                          number(width, "width"), ctypes.byref(h)))
         return cls._made(h, ctx)
 
+    @classmethod
+    def bins_irf(cls, ctx, centres, width, irf_offsets, irf_samples, window="box"):
+        """Pathlength bins as `bins` makes them, seen through an instrument
+        response function: samples `irf_samples` (≥ 0, normalised to sum 1)
+        at pathlength offsets `irf_offsets` (the medium's length unit; see
+        irf_offsets_from_times for a time axis in ps). A photon of
+        pathlength τ is scored at τ + offset with the sample's weight."""
+        cp = _ctx(ctx)
+        c = _arrays.to_c(centres, "d", name="centres")
+        o = _arrays.to_c(irf_offsets, "d", name="irf_offsets")
+        h = _arrays.to_c(irf_samples, "d", o.count, "irf_samples")
+        out = ctypes.c_void_p()
+        check(lib.pathlength_create_bins_irf(cp, lookup(window, WINDOWS, "window"),
+                                             integer(c.count, "len(centres)"), c.ptr,
+                                             number(width, "width"),
+                                             integer(o.count, "len(irf_offsets)"), o.ptr, h.ptr,
+                                             ctypes.byref(out)))
+        return cls._made(out, ctx)
+
     @property
     def bin_count(self):
         return lib.pathlength_bin_count(self._ptr)
+
+
+def irf_offsets_from_times(times_ps, eta, length_unit_mm=1.0):
+    """Times of flight in picoseconds as pathlengths in the medium,
+    c₀·t/η in the medium's length unit (length_unit_mm: 1 for mm, 10 for
+    cm). Returns a new array, flat like the input read in C order."""
+    t = _arrays.to_c(times_ps, "d", name="times_ps")
+    out, po = _arrays.empty(t.count)
+    check(lib.irf_offsets_from_times(t.ptr, t.count, number(eta, "eta"),
+                                     number(length_unit_mm, "length_unit_mm"), po))
+    return out

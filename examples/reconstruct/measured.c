@@ -1,0 +1,175 @@
+/* Acquisition from files: the render scene's measurement set (render/scene.c,
+ * the same reader as hetinv-render) and the EXR files of its rows, in the
+ * layout hetinv-render writes (render/output.c): per row <row>.exr with
+ * one channel per pathlength bin ("L" or "tau0000" ...), sensor width ×
+ * height pixels, row 0 of the image the highest v; standard errors in
+ * <row>_stderr.exr. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "recon.h"
+#include "scene.h"
+
+/* Reads one stack of a row into dst (the row's values in the set's layout:
+ * bin-major, then pixel j·width + i, j from the lowest v). Non-finite
+ * values, and negative ones when `std_errors`, are refused. */
+static int read_stack(hetinv_context_t *ctx, const scene_t *scene, int row, size_t offset,
+                      const char *file, bool std_errors, double *dst, char *msg, size_t msg_size) {
+  const scene_row_t *rw = &scene->rows[row];
+  const scene_sensor_t *s = &scene->sensors[rw->sensor];
+  const scene_pathlength_t *pl = &scene->pathlengths[rw->pathlength];
+  hetinv_image_t *img = NULL;
+  if (hetinv_image_read_exr(ctx, file, &img) != HETINV_SUCCESS) {
+    /* the library's message names the file and the reason (cannot open, corrupt) */
+    snprintf(msg, msg_size, "measurement row %d \"%s\": %s", row, rw->name,
+             hetinv_context_last_error_message(ctx));
+    return -1;
+  }
+  int32_t w = 0, h = 0, channels = 0;
+  hetinv_image_get_size(img, &w, &h, &channels);
+  int status = -1;
+  char name[32];
+  scene_channel_name(pl, pl->count - 1, name, sizeof name);
+  if (channels != pl->count) {
+    snprintf(msg, msg_size, "%s: %d channel%s; measurement row %d \"%s\" has %d pathlength bin%s "
+             "(pathlength \"%s\"), so expected channels %s%s%s", file, (int)channels,
+             channels == 1 ? "" : "s", row, rw->name, (int)pl->count, pl->count == 1 ? "" : "s",
+             pl->name, pl->steady ? "" : "tau0000 ... ", name, pl->steady ? " (steady state)" : "");
+  } else if (w != s->width || h != s->height) {
+    snprintf(msg, msg_size, "%s: %d x %d pixels; measurement row %d \"%s\" has sensor \"%s\" of "
+             "%d x %d pixels", file, (int)w, (int)h, row, rw->name, s->name, (int)s->width,
+             (int)s->height);
+  } else {
+    status = 0;
+  }
+  const size_t pixels = (size_t)w * (size_t)h;
+  for (int32_t b = 0; status == 0 && b < pl->count; ++b) {
+    int32_t c = -1;
+    scene_channel_name(pl, b, name, sizeof name);
+    if (hetinv_image_find_channel(img, name, &c) != HETINV_SUCCESS) {
+      snprintf(msg, msg_size, "%s: no channel \"%s\" (bin %d of measurement row %d \"%s\"); "
+               "its first channel is \"%s\"", file, name, (int)b, row, rw->name,
+               hetinv_image_channel_name(img, 0));
+      status = -1;
+      break;
+    }
+    const float *px = hetinv_image_channel_data(img, c);
+    for (int32_t y = 0; status == 0 && y < h; ++y) {
+      for (int32_t x = 0; x < w; ++x) {
+        double v = px[(size_t)y * (size_t)w + (size_t)x];
+        if (!isfinite(v) || (std_errors && v < 0.0)) {
+          snprintf(msg, msg_size, "%s: channel \"%s\", pixel (%d, %d) of measurement row %d \"%s\": "
+                   "%s is %g; expected a finite %s", file, name, (int)x, (int)y, row, rw->name,
+                   std_errors ? "standard error" : "value", v,
+                   std_errors ? "number >= 0" : "number");
+          status = -1;
+          break;
+        }
+        /* image row y holds the set's pixel row h - 1 - y (render/output.c) */
+        dst[offset + (size_t)b * pixels + (size_t)(h - 1 - y) * (size_t)w + (size_t)x] = v;
+      }
+    }
+  }
+  hetinv_image_destroy(&img);
+  return status;
+}
+
+/* Checks the rows: each must have a file layout (an orthographic sensor). */
+static int check_rows(const scene_t *scene, char *msg, size_t msg_size) {
+  for (int i = 0; i < scene->row_count; ++i) {
+    const scene_sensor_t *s = &scene->sensors[scene->rows[i].sensor];
+    if (s->kind != SENSOR_ORTHOGRAPHIC) {
+      snprintf(msg, msg_size, "%s: measurement row %d \"%s\": sensor \"%s\" is hemispherical; "
+               "hetinv-render writes no file for it, so a reconstruction from files reads "
+               "orthographic sensors only", scene->path, i, scene->rows[i].name, s->name);
+      return -1;
+    }
+  }
+  return 0;
+}
+
+/* Reads every row's values (and standard errors) and sets them, with
+ * weights and a full mask, on the set. */
+static int read_values(hetinv_context_t *ctx, const recon_scene_t *sc, const scene_t *scene,
+                       char *msg, size_t msg_size) {
+  size_t n = hetinv_measurements_value_count(scene->set);
+  double *v = calloc(n, sizeof *v), *se = calloc(n, sizeof *se), *w = calloc(n, sizeof *w);
+  uint8_t *mask = malloc(n);
+  int status = 0;
+  if (v == NULL || se == NULL || w == NULL || mask == NULL) {
+    snprintf(msg, msg_size, "out of memory for %zu measured values", n);
+    status = -1;
+  }
+  char file[2400];
+  for (int row = 0; status == 0 && row < scene->row_count; ++row) {
+    size_t offset = 0;
+    int32_t pixels = 0, bins = 0;
+    hetinv_measurements_row_layout(scene->set, row, &offset, &pixels, &bins);
+    snprintf(file, sizeof file, "%s/%s.exr", sc->measured, scene->rows[row].name);
+    status = read_stack(ctx, scene, row, offset, file, false, v, msg, msg_size);
+    if (status == 0 && sc->std_errors[0] != '\0') {
+      snprintf(file, sizeof file, "%s/%s_stderr.exr", sc->std_errors, scene->rows[row].name);
+      status = read_stack(ctx, scene, row, offset, file, true, se, msg, msg_size);
+    }
+  }
+  hetinv_result_t r = HETINV_SUCCESS;
+  if (status == 0) {
+    memset(mask, 1, n);
+    recon_set_weights(sc->weighting, v, se, w, n);
+    r = hetinv_measurements_set_values(scene->set, v, se, n);
+    if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(scene->set, w, n);
+    if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(scene->set, mask, n);
+    if (r != HETINV_SUCCESS) {
+      snprintf(msg, msg_size, "%s: %s", sc->measured, hetinv_context_last_error_message(ctx));
+      status = -1;
+    }
+  }
+  free(v);
+  free(se);
+  free(w);
+  free(mask);
+  return status;
+}
+
+static void release_scene(scene_t *scene) {
+  scene_destroy(scene);
+  free(scene);
+}
+
+int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *im, char *msg,
+                     size_t msg_size) {
+  memset(im, 0, sizeof *im);
+  scene_t *scene = calloc(1, sizeof *scene);
+  if (scene == NULL) {
+    snprintf(msg, msg_size, "out of memory");
+    return -1;
+  }
+  im->files = scene;
+  im->files_release = release_scene;
+  jr_t jr;
+  memset(&jr, 0, sizeof jr);
+  if (scene_load(scene, sc->render_scene, &jr) < 0) {
+    snprintf(msg, msg_size, "%s", jr.message);
+    return -1;
+  }
+  scene->geometry_only = 1; /* the medium's values (the truth, if any) are never read */
+  if (scene_build(scene, ctx, &jr) < 0) {
+    snprintf(msg, msg_size, "%s", jr.message);
+    return -1;
+  }
+  if (check_rows(scene, msg, msg_size) < 0) return -1;
+  memcpy(sc->grid, scene->dims, sizeof sc->grid);
+  memcpy(sc->box_min, scene->box_min, sizeof sc->box_min);
+  memcpy(sc->box_max, scene->box_max, sizeof sc->box_max);
+  sc->has_box = true;
+  sc->eta = scene->eta;
+  sc->eta_out = scene->eta_out;
+  sc->size = scene->box_max[0] - scene->box_min[0]; /* layer-wise stages' voxel size: size / grid[0] */
+  if (read_values(ctx, sc, scene, msg, msg_size) < 0) return -1;
+  im->set = scene->set; /* the set is released with the imaging, the rest with the scene */
+  scene->set = NULL;
+  return 0;
+}
+

@@ -1,0 +1,46 @@
+/* hetinv-exr-poison: test helper. Copies an OpenEXR file with one value
+ * replaced (by "nan", "inf" or a number), to test that readers of
+ * measured files refuse it with a message naming the channel and pixel.
+ *
+ *   usage: hetinv-exr-poison IN.exr OUT.exr CHANNEL X Y VALUE
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <hetinv/hetinv.h>
+
+int main(int argc, char **argv) {
+  if (argc != 7) {
+    fprintf(stderr, "usage: %s IN.exr OUT.exr CHANNEL X Y VALUE\n", argv[0]);
+    return 2;
+  }
+  hetinv_context_t *ctx = NULL;
+  hetinv_image_t *img = NULL;
+  int status = 1;
+  int32_t c = -1, w = 0, h = 0;
+  const int x = atoi(argv[4]), y = atoi(argv[5]);
+  const float value = strcmp(argv[6], "nan") == 0 ? NAN : strcmp(argv[6], "inf") == 0 ? INFINITY
+                                                                                    : (float)atof(argv[6]);
+  if (hetinv_context_create(NULL, &ctx) != HETINV_SUCCESS || hetinv_image_read_exr(ctx, argv[1], &img) != HETINV_SUCCESS ||
+      hetinv_image_find_channel(img, argv[3], &c) != HETINV_SUCCESS) {
+    fprintf(stderr, "hetinv-exr-poison: %s: %s\n", argv[1], hetinv_context_last_error_message(ctx));
+    goto done;
+  }
+  hetinv_image_get_size(img, &w, &h, NULL);
+  if (x < 0 || x >= w || y < 0 || y >= h) {
+    fprintf(stderr, "hetinv-exr-poison: pixel (%d, %d) is outside %d x %d\n", x, y, (int)w, (int)h);
+    goto done;
+  }
+  hetinv_image_channel_data(img, c)[(size_t)y * (size_t)w + (size_t)x] = value;
+  if (hetinv_image_write_exr(img, argv[2]) != HETINV_SUCCESS) {
+    fprintf(stderr, "hetinv-exr-poison: %s: %s\n", argv[2], hetinv_context_last_error_message(ctx));
+    goto done;
+  }
+  status = 0;
+done:
+  hetinv_image_destroy(&img);
+  hetinv_context_destroy(&ctx);
+  return status;
+}

@@ -1,0 +1,235 @@
+/* A measurement, not a test (built, not registered in CTest; figures and
+ * commands in docs/results/gain.md): the bias of the loss gradient with a
+ * global calibration gain (hetinv_estimator_set_gain_mode,
+ * HETINV_GAIN_GLOBAL) against the gradient of the reduced loss of the
+ * expected render,
+ *   L̄*(π) = min_k Σ_n m_n w_n (k·E[I_n](π) − Ī_n)²,
+ * whose gradient is (envelope theorem) Σ_n 2 m_n w_n k̄ (k̄ E[I_n] − Ī_n)
+ * ∂E[I_n]/∂π with k̄ = Σ m w E[I] Ī / Σ m w E[I]². The library fits k from
+ * the render of stream s, so its gradient carries a bias of order
+ * 1/photons (hetinv/estimator.h). Problem, calls and reference streams are
+ * those of test_gradient_loss.c; N photons per call from the environment
+ * variable HETINV_GAIN_CALL_PHOTONS (default 200). The reference's error:
+ * per stream j, the spread of Σ coef D_j (D varies) and of Σ coef(C_j) D̄
+ * (C varies, k̄ refitted per stream). It prints one VALIDATION line per π
+ * entry (z, and PASS/FAIL against the Bonferroni bound) and exits 0: a FAIL
+ * line is the bias seen, which is what it measures. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "test_gradient_common.h"
+
+#define COMPARISONS 6
+#define K 6
+#define VALUES 4
+#define CALLS 3000       /* R loss-gradient calls (epochs 1..R), times the scale */
+#define CALL_PHOTONS 200 /* N photons per call by default: small on purpose, not scaled */
+#define STREAMS 64       /* M for each factor of the reference */
+#define REF_PHOTONS 1e6  /* photons per FD render (all streams), and for Ī(π) */
+
+static uint64_t seed; /* val_seed(SEED), set in main */
+#define SEED UINT64_C(0x5eed0c01)
+
+static const double weight[VALUES] = {1.0, 2.0, 0.5, 3.0};
+static const uint8_t mask[VALUES] = {1, 1, 1, 0};
+static const double scale_measured[VALUES] = {0.6, 1.4, 0.8, 0.1};
+
+typedef struct problem {
+  hetinv_context_t *ctx;
+  hetinv_medium_t *medium;
+  hetinv_emitter_t *beam;
+  hetinv_sensor_t *top, *bottom, *side, *pixel;
+  hetinv_pathlength_t *steady;
+  hetinv_measurements_t *set;
+  hetinv_param_map_t *map;
+} problem_t;
+
+static void problem_build(problem_t *p) {
+  p->ctx = val_context(seed, 1);
+  assert_ok(hetinv_medium_create(p->ctx, (double[]){0, 0, 0}, (double[]){2, 1, 1},
+                                 (int32_t[]){2, 1, 1}, &p->medium));
+  assert_ok(hetinv_medium_set_ior(p->medium, 1.3, 1.0));
+  assert_ok(hetinv_medium_set_voxel(p->medium, 0, 0, 0, 0.5, 3.0, 0.3));
+  assert_ok(hetinv_medium_set_voxel(p->medium, 1, 0, 0, 0.8, 2.0, 0.5));
+  assert_ok(hetinv_medium_commit(p->medium));
+  assert_ok(hetinv_emitter_create_ideal(p->medium, (double[]){0.5, 0.5, 1.0}, (double[]){0.3, 0.0, -1.0},
+                                        &p->beam));
+  assert_ok(hetinv_sensor_create_hemispherical(p->medium, HETINV_FACE_Z_MAX, NULL, NULL, &p->top));
+  assert_ok(hetinv_sensor_create_hemispherical(p->medium, HETINV_FACE_Z_MIN, NULL, NULL, &p->bottom));
+  assert_ok(hetinv_sensor_create_hemispherical(p->medium, HETINV_FACE_X_MAX, NULL, NULL, &p->side));
+  assert_ok(hetinv_sensor_create_orthographic(p->medium, HETINV_FACE_Z_MAX, (double[]){0, 0, 1},
+                                              (double[]){0, 0}, (double[]){2, 1}, 1, 1, &p->pixel));
+  assert_ok(hetinv_pathlength_create_steady(p->ctx, &p->steady));
+  assert_ok(hetinv_measurements_create(p->ctx, &p->set));
+  assert_ok(hetinv_measurements_add(p->set, p->beam, p->top, p->steady, NULL));
+  assert_ok(hetinv_measurements_add(p->set, p->beam, p->bottom, p->steady, NULL));
+  assert_ok(hetinv_measurements_add(p->set, p->beam, p->side, p->steady, NULL));
+  assert_ok(hetinv_measurements_add(p->set, p->beam, p->pixel, p->steady, NULL));
+  assert_int_equal(hetinv_measurements_value_count(p->set), VALUES);
+  assert_ok(hetinv_param_map_create_identity(p->medium, HETINV_FREE_ALL, &p->map));
+  assert_int_equal(hetinv_param_map_size(p->map), K);
+}
+
+static void problem_destroy(problem_t *p) {
+  hetinv_param_map_destroy(&p->map);
+  hetinv_measurements_destroy(&p->set);
+  hetinv_pathlength_destroy(&p->steady);
+  hetinv_sensor_destroy(&p->pixel);
+  hetinv_sensor_destroy(&p->side);
+  hetinv_sensor_destroy(&p->bottom);
+  hetinv_sensor_destroy(&p->top);
+  hetinv_emitter_destroy(&p->beam);
+  hetinv_medium_destroy(&p->medium);
+  hetinv_context_destroy(&p->ctx);
+}
+
+/* Sets the measured values: this medium's values (stream 60000) scaled. */
+static void set_measured(problem_t *p, double measured[VALUES]) {
+  hetinv_estimator_t *est = val_estimator(p->ctx, 1e5);
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, 60000));
+  double v[VALUES];
+  assert_ok(hetinv_estimator_render(est, p->medium, p->set, v, NULL, NULL, VALUES));
+  for (int n = 0; n < VALUES; ++n) measured[n] = scale_measured[n] * v[n];
+  assert_ok(hetinv_measurements_set_values(p->set, measured, NULL, VALUES));
+  assert_ok(hetinv_measurements_set_weights(p->set, weight, VALUES));
+  assert_ok(hetinv_measurements_set_mask(p->set, mask, VALUES));
+  hetinv_estimator_destroy(&est);
+}
+
+/* 2 m w k (k C − Ī) with k the least-squares gain of C. */
+static void gain_coef(const double C[VALUES], const double measured[VALUES], double coef[VALUES]) {
+  double num = 0.0, den = 0.0;
+  for (int n = 0; n < VALUES; ++n) {
+    if (!mask[n]) continue;
+    num += weight[n] * C[n] * measured[n];
+    den += weight[n] * C[n] * C[n];
+  }
+  double k = num / den;
+    for (int n = 0; n < VALUES; ++n) coef[n] = mask[n] ? 2.0 * weight[n] * k * (k * C[n] - measured[n]) : 0.0;
+}
+
+static void gain_gradient_mean_is_gradient_of_reduced_loss_of_mean(void **state) {
+  (void)state;
+  problem_t p;
+  problem_build(&p);
+  double measured[VALUES];
+  set_measured(&p, measured);
+  double t0 = grad_now();
+
+  /* The estimator: R calls of N photons, epochs 1..R. */
+  hetinv_estimator_t *est = NULL;
+  assert_ok(hetinv_estimator_create(p.ctx, &est));
+  const char *env = getenv("HETINV_GAIN_CALL_PHOTONS");
+  double call_photons = env ? atof(env) : CALL_PHOTONS;
+  assert_true(call_photons >= 1.0);
+  int calls = (int)floor(CALLS * (double)HETINV_VALIDATION_SCALE + 0.5);
+  if (calls < 500) calls = 500; /* the mean of few-photon calls needs many of them */
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, call_photons));
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
+  double *samples = calloc((size_t)calls * K, sizeof *samples);
+  assert_non_null(samples);
+  for (int r = 0; r < calls; ++r) {
+    double grad[K];
+    assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_EPOCH, r + 1.0));
+    if (r == 0) assert_ok(hetinv_estimator_set_gain_mode(est, HETINV_GAIN_GLOBAL));
+    assert_ok(hetinv_estimator_loss_gradient(est, p.medium, p.set, p.map, NULL, NULL, grad, K));
+    for (int k = 0; k < K; ++k) samples[(size_t)k * calls + r] = grad[k];
+  }
+  hetinv_estimator_destroy(&est);
+  double t1 = grad_now();
+
+  /* The reference: per stream j, D^(j)_{n,k} (CRN central differences)
+   * and, from stream STREAMS + j, C^(j)_n = I_n(π). */
+  assert_ok(hetinv_estimator_create(p.ctx, &est));
+  double per_stream = floor(REF_PHOTONS * (double)HETINV_VALIDATION_SCALE / STREAMS + 0.5);
+  if (per_stream < 64) per_stream = 64;
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, per_stream));
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
+  static double D[STREAMS][VALUES][K], C[STREAMS][VALUES];
+  hetinv_medium_t *plus[K], *minus[K];
+  double h[K];
+  for (int k = 0; k < K; ++k) {
+    hetinv_param_t param;
+    size_t cell;
+    assert_ok(hetinv_param_map_entry(p.map, (size_t)k, &param, &cell));
+    int32_t vox[3] = {(int32_t)cell, 0, 0};
+    double v[3];
+    assert_ok(hetinv_medium_get_voxel(p.medium, vox[0], 0, 0, &v[0], &v[1], &v[2]));
+    h[k] = param == HETINV_PARAM_G ? 0.05 : 0.1 * v[param];
+    plus[k] = grad_perturbed(p.medium, vox, param, v[param] + h[k]);
+    minus[k] = grad_perturbed(p.medium, vox, param, v[param] - h[k]);
+  }
+  for (int j = 0; j < STREAMS; ++j) {
+    assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, j));
+    for (int k = 0; k < K; ++k) {
+      double ip[VALUES], im[VALUES];
+      assert_ok(hetinv_estimator_render(est, plus[k], p.set, ip, NULL, NULL, VALUES));
+      assert_ok(hetinv_estimator_render(est, minus[k], p.set, im, NULL, NULL, VALUES));
+      for (int n = 0; n < VALUES; ++n) D[j][n][k] = (ip[n] - im[n]) / (2.0 * h[k]);
+    }
+    assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, STREAMS + j));
+    assert_ok(hetinv_estimator_render(est, p.medium, p.set, C[j], NULL, NULL, VALUES));
+  }
+  for (int k = 0; k < K; ++k) {
+    hetinv_medium_destroy(&plus[k]);
+    hetinv_medium_destroy(&minus[k]);
+  }
+  hetinv_estimator_destroy(&est);
+  double t2 = grad_now();
+  printf("loss gradient: %d calls of %.0f photons in %.1f s; reference: %d streams x %d renders "
+         "of %.0f photons in %.1f s\n",
+         calls, call_photons, t1 - t0, STREAMS, 2 * K + 1, per_stream, t2 - t1);
+
+  /* Means of both factors, the reference and its delta-method error. */
+  double Dbar[VALUES][K] = {{0}}, Cbar[VALUES] = {0};
+  for (int j = 0; j < STREAMS; ++j) {
+    for (int n = 0; n < VALUES; ++n) {
+      Cbar[n] += C[j][n] / STREAMS;
+      for (int k = 0; k < K; ++k) Dbar[n][k] += D[j][n][k] / STREAMS;
+    }
+  }
+  double coef[VALUES]; /* 2 m w k̄ (k̄ Ī(π) − Ī) */
+  gain_coef(Cbar, measured, coef);
+  for (int n = 0; n < VALUES; ++n) {
+    printf("value %d: I(pi) = %.6g, measured %.6g, weight %g, mask %d\n", n, Cbar[n], measured[n],
+           weight[n], mask[n]);
+  }
+  int failures = 0;
+  for (int k = 0; k < K; ++k) {
+    double ref = 0.0, a[STREAMS], b[STREAMS], ma, sa, mb, sb;
+    for (int n = 0; n < VALUES; ++n) ref += coef[n] * Dbar[n][k];
+    for (int j = 0; j < STREAMS; ++j) {
+      a[j] = b[j] = 0.0;
+      for (int n = 0; n < VALUES; ++n) {
+        a[j] += coef[n] * D[j][n][k];                                                /* D varies */
+      }
+      double cj[VALUES];
+      gain_coef(C[j], measured, cj);
+      for (int n = 0; n < VALUES; ++n) b[j] += cj[n] * Dbar[n][k];                /* C varies */
+    }
+    grad_mean_se(a, STREAMS, &ma, &sa);
+    grad_mean_se(b, STREAMS, &mb, &sb);
+    double ref_se = sqrt(sa * sa + sb * sb);
+    double ref_dof = grad_welch_dof(sa, STREAMS - 1.0, sb, STREAMS - 1.0);
+    double mean, se;
+    grad_mean_se(samples + (size_t)k * calls, calls, &mean, &se);
+    hetinv_param_t param;
+    size_t cell;
+    assert_ok(hetinv_param_map_entry(p.map, (size_t)k, &param, &cell));
+    char name[64];
+    snprintf(name, sizeof name, "gain/E[grad]/%s/voxel%zu", hetinv_param_name(param), cell);
+    failures += !grad_compare(name, ref, ref_se, ref_dof, mean, se, calls - 1.0, COMPARISONS, seed);
+  }
+  free(samples);
+  problem_destroy(&p);
+  printf("%d of %d comparisons beyond the bound (the gain's bias at %.0f photons per call)\n",
+         failures, K, call_photons);
+}
+
+int main(void) {
+  seed = val_seed(SEED);
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(gain_gradient_mean_is_gradient_of_reduced_loss_of_mean),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
