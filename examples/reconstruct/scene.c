@@ -50,10 +50,9 @@ void recon_scene_default(recon_scene_t *sc) {
   sc->photons = 2000;
   sc->batches = 8;
   sc->method = HETINV_METHOD_ADADELTA;
-  /* σs and g step as (σs(1 − g), g): in native coordinates the steady-state
-   * loss is a narrow valley along σs(1 − g) = const that the per-entry steps
-   * cross slowly (docs/results/seeds.md). */
-  sc->coordinates = HETINV_COORDINATES_REDUCED;
+  /* Native: reduced coordinates (σs(1 − g), g) did not lower the errors of
+   * the volumes it was tried on (docs/results/seeds.md). */
+  sc->coordinates = HETINV_COORDINATES_NATIVE;
   sc->iterations = 600;
   sc->coarse_fraction = 0.15;
   sc->minibatch = 16;
