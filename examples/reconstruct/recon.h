@@ -75,6 +75,7 @@ typedef struct recon_scene {
   int32_t batches;
   /* Optimizer. */
   int method;
+  int coordinates; /* enum hetinv_coordinates_id */
   int64_t iterations;           /* of the finest stage */
   double coarse_fraction;       /* iterations of each coarser stage, relative */
   int32_t minibatch;

@@ -50,6 +50,9 @@ void recon_scene_default(recon_scene_t *sc) {
   sc->photons = 2000;
   sc->batches = 8;
   sc->method = HETINV_METHOD_ADADELTA;
+  /* Native: reduced coordinates (σs(1 − g), g) did not lower the errors of
+   * the volumes it was tried on (docs/results/seeds.md). */
+  sc->coordinates = HETINV_COORDINATES_NATIVE;
   sc->iterations = 600;
   sc->coarse_fraction = 0.15;
   sc->minibatch = 16;
@@ -299,12 +302,14 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   const cJSON *o = NULL;
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
   if (got <= 0) return got;
-  static const char *const allowed[] = {"method", "iterations", "coarse_fraction", "minibatch", "epsilon",
+  static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
                                         "decay", "learning_rate", "average_window", "time_budget", "bounds",
                                         "init", "levels", "layerwise_layers", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   static const char *const methods[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, methods, &sc->method) < 0) return -1;
+  static const char *const coordinates[] = {"native", "reduced", NULL};
+  if (jr_choice(jr, o, "optimizer", "coordinates", JR_OPTIONAL, coordinates, &sc->coordinates) < 0) return -1;
   /* A stage's iteration count is an int32_t (hetinv_stage_t). */
   if (jr_integer(jr, o, "optimizer", "iterations", JR_OPTIONAL, 1, INT32_MAX, &sc->iterations) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "coarse_fraction", JR_OPTIONAL, &sc->coarse_fraction) < 0) return -1;

@@ -56,6 +56,7 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *s
   for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) r = hetinv_optimizer_set_bounds(opt, p, sc->bounds_lo[p], sc->bounds_hi[p]);
   struct { hetinv_optimizer_param_t id; double value; } params[] = {
       {HETINV_OPTIMIZER_METHOD, sc->method},
+      {HETINV_OPTIMIZER_COORDINATES, sc->coordinates},
       {HETINV_OPTIMIZER_MINIBATCH, sc->minibatch},
       {HETINV_OPTIMIZER_EPSILON, sc->epsilon},
       {HETINV_OPTIMIZER_DECAY, sc->decay},

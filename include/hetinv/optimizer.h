@@ -114,7 +114,23 @@ enum hetinv_optimizer_param_id {
   /** Iterations between checkpoints when a checkpoint path is set
    *  (default 10; integer ≥ 1). A checkpoint is also written when the run ends. */
   HETINV_OPTIMIZER_CHECKPOINT_INTERVAL = 12,
-  HETINV_OPTIMIZER_PARAM_COUNT_ = 13 /**< not a parameter: one past the last */
+  /** The coordinates the method steps in, an enum hetinv_coordinates_id
+   *  (default HETINV_COORDINATES_NATIVE). */
+  HETINV_OPTIMIZER_COORDINATES = 13,
+  HETINV_OPTIMIZER_PARAM_COUNT_ = 14 /**< not a parameter: one past the last */
+};
+
+/** Coordinates of the descent: values of HETINV_OPTIMIZER_COORDINATES. Pinned values. */
+enum hetinv_coordinates_id {
+  /** Each π entry moves on its own: (σa, σs, g) as mapped. */
+  HETINV_COORDINATES_NATIVE = 0,
+  /** Where a cell's σs and g are both free, they move as (σs' = σs(1 − g), g):
+   *  steady light mostly sees the reduced scattering σs' (similarity), so the
+   *  loss is a narrow valley along σs(1 − g) = const in native coordinates,
+   *  which a per-entry step crosses slowly; here the valley lies along g. The
+   *  result, bounds, averaging and π stay native. */
+  HETINV_COORDINATES_REDUCED = 1,
+  HETINV_COORDINATES_COUNT_ = 2 /**< not a value: one past the last */
 };
 
 /** Why a run ended: a value of enum hetinv_stop_reason_id. */

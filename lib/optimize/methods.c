@@ -1,49 +1,93 @@
 /* The descent methods. Each works in scaled coordinates (entry k moves in
- * units of its scale s_k) and ends with the projection onto the box. */
+ * units of its scale s_k) and ends with the projection onto the box.
+ *
+ * With HETINV_COORDINATES_REDUCED a cell whose σs and g are both free moves
+ * in (σs' = σs(1 − g), g) instead of (σs, g). Steady light sees mostly σs'
+ * (similarity, the paper's Lemma 1), so in native coordinates the loss has a
+ * long narrow valley along σs(1 − g) = const that a per-entry step (every
+ * method here) crosses slowly; in reduced coordinates the valley lies along
+ * the g axis, where a per-entry step adapts to it. */
 #include <math.h>
 
 #include "optimize/optimizer_internal.h"
 
+typedef struct method {
+  int id;
+  double gamma, eps, rate, b1, b2, c1, c2;
+} method_t;
+
+/* The method's move of entry i for gradient g, updating its accumulators. */
+static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double g) {
+  double s = opt->scale[i], d = 0.0;
+  double *a1 = &opt->acc1[i], *a2 = &opt->acc2[i];
+  switch (m->id) {
+    case HETINV_METHOD_ADADELTA: {
+      /* Zeiler 2012, Algorithm 1: RMS[δ]_{t-1} / RMS[g]_t · g. An entry
+       * no path has reached yet (E[g²] = 0) does not move. */
+      *a1 = m->gamma * *a1 + (1.0 - m->gamma) * g * g;
+      double eps_k = (m->eps * s) * (m->eps * s);
+      d = *a1 > 0.0 ? sqrt(*a2 + eps_k) / sqrt(*a1) * g : 0.0;
+      *a2 = m->gamma * *a2 + (1.0 - m->gamma) * d * d;
+      break;
+    }
+    case HETINV_METHOD_SGD:
+      d = m->rate * s * s * g;
+      break;
+    case HETINV_METHOD_ADAGRAD:
+      *a1 += g * g;
+      d = *a1 > 0.0 ? m->rate * s * g / sqrt(*a1) : 0.0;
+      break;
+    default: /* HETINV_METHOD_ADAM */
+      *a1 = m->b1 * *a1 + (1.0 - m->b1) * g;
+      *a2 = m->b2 * *a2 + (1.0 - m->b2) * g * g;
+      d = *a2 > 0.0 ? m->rate * s * (*a1 / m->c1) / sqrt(*a2 / m->c2) : 0.0;
+      break;
+  }
+  return d;
+}
+
+static double clamp(double x, double lo, double hi) { return fmin(fmax(x, lo), hi); }
+
+/* One step of σs entry i and its cell's g entry j in (σs', g): by the chain
+ * rule ∂L/∂σs' = ∂L/∂σs / (1 − g) and ∂L/∂g|σs' = ∂L/∂g + ∂L/∂σs · σs / (1 − g).
+ * The new point is projected onto the native box (g first, then σs). */
+static void reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, size_t j,
+                         double *di, double *dj) {
+  double s = opt->pi[i], g = opt->pi[j], q = 1.0 - g;
+  double gr = opt->grad[i] / q, gg = opt->grad[j] + opt->grad[i] * s / q;
+  double dr = delta(m, opt, i, gr), dg = delta(m, opt, j, gg);
+  double g_new = clamp(g - dg, opt->lo_k[j], opt->hi_k[j]);
+  double s_new = clamp((s * q - dr) / (1.0 - g_new), opt->lo_k[i], opt->hi_k[i]);
+  *di = s - s_new;
+  *dj = g - g_new;
+  opt->pi[i] = s_new;
+  opt->pi[j] = g_new;
+}
+
 double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen) {
   const double *par = opt->param;
-  int method = (int)par[HETINV_OPTIMIZER_METHOD];
-  double gamma = par[HETINV_OPTIMIZER_DECAY], eps = par[HETINV_OPTIMIZER_EPSILON];
-  double rate = par[HETINV_OPTIMIZER_LEARNING_RATE];
   double b1 = par[HETINV_OPTIMIZER_BETA1], b2 = par[HETINV_OPTIMIZER_BETA2];
   /* Adam's bias corrections, for the stage's iteration t = 1, 2, ... */
   double t = (double)(opt->stage_iteration + 1);
-  double c1 = 1.0 - pow(b1, t), c2 = 1.0 - pow(b2, t);
+  method_t m = {(int)par[HETINV_OPTIMIZER_METHOD], par[HETINV_OPTIMIZER_DECAY], par[HETINV_OPTIMIZER_EPSILON],
+                par[HETINV_OPTIMIZER_LEARNING_RATE], b1, b2, 1.0 - pow(b1, t), 1.0 - pow(b2, t)};
+  bool reduced = par[HETINV_OPTIMIZER_COORDINATES] == HETINV_COORDINATES_REDUCED;
   double sq = 0.0;
   size_t moved = 0;
   for (size_t i = 0; i < opt->k; ++i) {
-    if (frozen && frozen[i]) continue;
-    double g = opt->grad[i], s = opt->scale[i], d = 0.0;
-    double *a1 = &opt->acc1[i], *a2 = &opt->acc2[i];
-    switch (method) {
-      case HETINV_METHOD_ADADELTA: {
-        /* Zeiler 2012, Algorithm 1: RMS[δ]_{t-1} / RMS[g]_t · g. An entry
-         * no path has reached yet (E[g²] = 0) does not move. */
-        *a1 = gamma * *a1 + (1.0 - gamma) * g * g;
-        double eps_k = (eps * s) * (eps * s);
-        d = *a1 > 0.0 ? sqrt(*a2 + eps_k) / sqrt(*a1) * g : 0.0;
-        *a2 = gamma * *a2 + (1.0 - gamma) * d * d;
-        break;
-      }
-      case HETINV_METHOD_SGD:
-        d = rate * s * s * g;
-        break;
-      case HETINV_METHOD_ADAGRAD:
-        *a1 += g * g;
-        d = *a1 > 0.0 ? rate * s * g / sqrt(*a1) : 0.0;
-        break;
-      default: /* HETINV_METHOD_ADAM */
-        *a1 = b1 * *a1 + (1.0 - b1) * g;
-        *a2 = b2 * *a2 + (1.0 - b2) * g * g;
-        d = *a2 > 0.0 ? rate * s * (*a1 / c1) / sqrt(*a2 / c2) : 0.0;
-        break;
+    if ((frozen && frozen[i]) || (reduced && opt->pair_of_g[i] >= 0)) continue;
+    int64_t j = reduced ? opt->pair_of_sigma_s[i] : -1;
+    double d = 0.0;
+    if (j >= 0) {
+      double dj = 0.0;
+      reduced_step(&m, opt, i, (size_t)j, &d, &dj);
+      sq += (dj / opt->scale[j]) * (dj / opt->scale[j]);
+      ++moved;
+    } else {
+      d = delta(&m, opt, i, opt->grad[i]);
+      opt->pi[i] = clamp(opt->pi[i] - d, opt->lo_k[i], opt->hi_k[i]);
     }
-    opt->pi[i] = fmin(fmax(opt->pi[i] - d, opt->lo_k[i]), opt->hi_k[i]);
-    sq += (d / s) * (d / s);
+    sq += (d / opt->scale[i]) * (d / opt->scale[i]);
     ++moved;
   }
   return moved ? sqrt(sq / (double)moved) : 0.0;

@@ -28,6 +28,7 @@ static const param_info_t PARAMS[HETINV_OPTIMIZER_PARAM_COUNT_] = {
     [HETINV_OPTIMIZER_PLATEAU_TOLERANCE] = {0.01, 0, 1, false, "HETINV_OPTIMIZER_PLATEAU_TOLERANCE"},
     [HETINV_OPTIMIZER_AVERAGE_WINDOW] = {20, 1, 4096, true, "HETINV_OPTIMIZER_AVERAGE_WINDOW"},
     [HETINV_OPTIMIZER_CHECKPOINT_INTERVAL] = {10, 1, 1e15, true, "HETINV_OPTIMIZER_CHECKPOINT_INTERVAL"},
+    [HETINV_OPTIMIZER_COORDINATES] = {HETINV_COORDINATES_NATIVE, 0, HETINV_COORDINATES_COUNT_ - 1, true, "HETINV_OPTIMIZER_COORDINATES"},
 };
 
 const char *hv_optimizer_param_name(hetinv_optimizer_param_t param) {
@@ -75,6 +76,9 @@ void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt) {
     hv_free(ctx, *arrays[i]);
     *arrays[i] = NULL;
   }
+  hv_free(ctx, opt->pair_of_sigma_s);
+  hv_free(ctx, opt->pair_of_g);
+  opt->pair_of_sigma_s = opt->pair_of_g = NULL;
   opt->k = 0;
   opt->ring_count = opt->ring_head = 0;
 }
@@ -262,6 +266,8 @@ void hv_optimizer_resolve_iterations(hetinv_optimizer_t *opt) {
   }
 }
 
+static void pair_cells(hetinv_optimizer_t *opt);
+
 hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t k) {
   const hetinv_context_t *ctx = opt->ctx;
   /* Allocated before the old state is released, so that a failure leaves
@@ -276,17 +282,50 @@ hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t 
   }
   size_t ring_len;
   v[VECTORS] = hv_mul_size(k, (size_t)window, &ring_len) ? hv_calloc(ctx, ring_len, sizeof(double)) : NULL;
-  if (!ok || v[VECTORS] == NULL) {
+  int64_t *pairs[2] = {hv_calloc(ctx, k, sizeof(int64_t)), hv_calloc(ctx, k, sizeof(int64_t))};
+  if (!ok || v[VECTORS] == NULL || pairs[0] == NULL || pairs[1] == NULL) {
     for (int i = 0; i <= VECTORS; ++i) hv_free(ctx, v[i]);
+    hv_free(ctx, pairs[0]);
+    hv_free(ctx, pairs[1]);
     return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the state of %zu entries", k);
   }
   hv_optimizer_free_stage_arrays(opt);
   opt->window = window;
   opt->pi = v[0], opt->acc1 = v[1], opt->acc2 = v[2], opt->scale = v[3];
   opt->lo_k = v[4], opt->hi_k = v[5], opt->grad = v[6], opt->ring = v[VECTORS];
+  opt->pair_of_sigma_s = pairs[0], opt->pair_of_g = pairs[1];
   opt->k = k;
   hv_optimizer_stage_bounds(opt);
+  pair_cells(opt);
   return HETINV_SUCCESS;
+}
+
+/* The reduced coordinates' pairs: each free σs entry and the free g entry
+ * of its cell. pair_of_g first serves as the table cell -> σs entry (a
+ * block has one entry per cell, so its cells are < k). */
+static void pair_cells(hetinv_optimizer_t *opt) {
+  const hv_stage_t *st = &opt->stages[opt->stage];
+  size_t k = opt->k;
+  int64_t *by_cell = opt->pair_of_g;
+  for (size_t i = 0; i < k; ++i) opt->pair_of_sigma_s[i] = by_cell[i] = -1;
+  for (size_t i = 0; i < k; ++i) {
+    hetinv_param_t p = HETINV_PARAM_SIGMA_A;
+    size_t cell = 0;
+    hetinv_param_map_entry(st->map, i, &p, &cell);
+    if (p == HETINV_PARAM_SIGMA_S && cell < k && !(st->frozen && st->frozen[i])) by_cell[cell] = (int64_t)i;
+  }
+  for (size_t j = 0; j < k; ++j) {
+    hetinv_param_t p = HETINV_PARAM_SIGMA_A;
+    size_t cell = 0;
+    hetinv_param_map_entry(st->map, j, &p, &cell);
+    if (p == HETINV_PARAM_G && cell < k && by_cell[cell] >= 0 && !(st->frozen && st->frozen[j])) {
+      opt->pair_of_sigma_s[by_cell[cell]] = (int64_t)j;
+    }
+  }
+  for (size_t i = 0; i < k; ++i) by_cell[i] = -1;
+  for (size_t i = 0; i < k; ++i) {
+    if (opt->pair_of_sigma_s[i] >= 0) by_cell[opt->pair_of_sigma_s[i]] = (int64_t)i;
+  }
 }
 
 /* Each entry's box and scale, from its parameter's bounds. */

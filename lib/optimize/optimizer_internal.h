@@ -60,6 +60,9 @@ struct hetinv_optimizer {
 
   /* Derived per stage (not saved: recomputed from the configuration). */
   double *scale, *lo_k, *hi_k, *grad;
+  /* Reduced coordinates: the g entry of each free σs entry's cell when that
+   * g is free too (else -1), and the inverse (-1 for an unpaired entry). */
+  int64_t *pair_of_sigma_s, *pair_of_g;
 };
 
 /* optimizer.c */

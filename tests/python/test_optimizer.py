@@ -129,6 +129,12 @@ class Configuration(unittest.TestCase):
             self.assertEqual(opt.get_param("method"), hetinv.METHOD_ADADELTA)
             opt.set_param("method", "sgd").set_param("iterations", 1)
             self.assertEqual(opt.get_param("method"), hetinv.METHOD_SGD)
+            self.assertEqual(opt.get_param("coordinates"), hetinv.COORDINATES_NATIVE)
+            opt.set_param("coordinates", "reduced")
+            self.assertEqual(opt.get_param("coordinates"), hetinv.COORDINATES_REDUCED)
+            with self.assertRaisesRegex(ValueError, "unknown coordinates"):
+                opt.set_param("coordinates", "polar")
+            opt.set_param("coordinates", "native")
             self.assertEqual(hetinv.optimizer_param_bounds("average_window"), (1, 4096))
             with self.assertRaisesRegex(hetinv.InvalidArgumentError, "hetinv_optimizer_set_param"):
                 opt.set_param("decay", 1.5)

@@ -291,6 +291,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
       {HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 0.01, 0, 1},
       {HETINV_OPTIMIZER_AVERAGE_WINDOW, 20, 1, 4096},
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10, 1, 1e15},
+      {HETINV_OPTIMIZER_COORDINATES, HETINV_COORDINATES_NATIVE, 0, HETINV_COORDINATES_COUNT_ - 1},
   };
   assert_int_equal(sizeof expect / sizeof expect[0], HETINV_OPTIMIZER_PARAM_COUNT_);
   for (size_t i = 0; i < sizeof expect / sizeof expect[0]; ++i) {
@@ -312,7 +313,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
   double lo = 7;
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(-1, &lo, NULL));
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(HETINV_OPTIMIZER_PARAM_COUNT_, &lo, NULL));
-  assert_message_contains("13");
+  assert_message_contains("14");
   assert_true(lo == 7);
   hetinv_optimizer_destroy(&opt);
 }
@@ -364,7 +365,7 @@ static void tunables_reject_bad_values_naming_them(void **state) {
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, -1, 0));
   assert_message_contains("-1");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PARAM_COUNT_, 0));
-  assert_message_contains("13");
+  assert_message_contains("14");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_get_param(opt, 99, &v));
   assert_message_contains("99");
   hetinv_optimizer_destroy(&opt);
@@ -578,6 +579,48 @@ static void other_methods_step_as_documented(void **state) {
   hv_method_step(&h.opt, NULL);
   assert_close(h.pi[0], 4.1 - 0.9 * (4.0 / 3.0) * sqrt(0.4375), 1e-14);
   assert_true(h.pi[1] == 5 && h.pi[2] == 0.2);
+}
+
+/* Reduced coordinates: σs (entry 0) and g (entry 2) of one cell step as
+ * (σs' = σs(1 − g), g) with the chain-ruled gradient; entry 1 stays native. */
+static void reduced_coordinates_step_by_the_chain_rule(void **state) {
+  (void)state;
+  hand_t h;
+  hand_init(&h, HETINV_METHOD_SGD);
+  int64_t pair_of_sigma_s[3] = {2, -1, -1}, pair_of_g[3] = {-1, -1, 0};
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_REDUCED;
+  h.opt.pair_of_sigma_s = pair_of_sigma_s;
+  h.opt.pair_of_g = pair_of_g;
+  h.grad[0] = 0.01, h.grad[1] = 0.001, h.grad[2] = 0.02;
+  /* q = 1 − 0.2 = 0.8; ∂L/∂σs' = 0.01/0.8; ∂L/∂g|σs' = 0.02 + 0.01·5/0.8.
+   * SGD: δ = rate·s²·gradient with rate 0.1, s = 9 (σs') and 1.98 (g). */
+  double dr = 0.1 * 81 * (0.01 / 0.8), dg = 0.1 * 1.98 * 1.98 * (0.02 + 0.01 * 5 / 0.8);
+  double g_new = 0.2 - dg, s_new = (5 * 0.8 - dr) / (1 - g_new);
+  double rms = hv_method_step(&h.opt, NULL);
+  assert_close(h.pi[2], g_new, 1e-14);
+  assert_close(h.pi[0], s_new, 1e-14);
+  assert_close(h.pi[1], 5 - 0.1 * 81 * 0.001, 1e-14);
+  double d0 = (5 - s_new) / 9, d1 = 0.1 * 81 * 0.001 / 9, d2 = dg / 1.98;
+  assert_close(rms, sqrt((d0 * d0 + d1 * d1 + d2 * d2) / 3), 1e-14);
+  /* σs(1 − g) moved by exactly the σs' step. */
+  assert_close(h.pi[0] * (1 - h.pi[2]), 5 * 0.8 - dr, 1e-14);
+  /* The projection: a g step past the box stops at the bound, and σs' is
+   * kept inside σs's box. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_REDUCED;
+  h.opt.pair_of_sigma_s = pair_of_sigma_s;
+  h.opt.pair_of_g = pair_of_g;
+  h.grad[0] = -1, h.grad[2] = -10;
+  hv_method_step(&h.opt, NULL);
+  assert_true(h.pi[2] == 0.99 && h.pi[0] == 10);
+  /* Native coordinates ignore the pairs. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.pair_of_sigma_s = pair_of_sigma_s;
+  h.opt.pair_of_g = pair_of_g;
+  h.grad[0] = 0.01, h.grad[2] = 0.02;
+  hv_method_step(&h.opt, NULL);
+  assert_close(h.pi[0], 5 - 0.1 * 81 * 0.01, 1e-14);
+  assert_close(h.pi[2], 0.2 - 0.1 * 1.98 * 1.98 * 0.02, 1e-14);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -1281,7 +1324,7 @@ static void damaged_checkpoints_are_refused(void **state) {
   expect_corrupt(opt, bad);
   /* An intact file of a later format version is unsupported, not corrupt. */
   memcpy(copy, data, len);
-  uint64_t version = 2;
+  uint64_t version = 3;
   memcpy(copy + 16, &version, 8);
   sum = fnv1a64(copy, len - 8);
   memcpy(copy + len - 8, &sum, 8);
@@ -1815,6 +1858,7 @@ int main(void) {
       cmocka_unit_test(stage_and_create_errors),
       cmocka_unit_test(adadelta_steps_match_hand_computation),
       cmocka_unit_test(other_methods_step_as_documented),
+      cmocka_unit_test(reduced_coordinates_step_by_the_chain_rule),
       cmocka_unit_test(every_method_moves_sigma_s_toward_the_truth),
       cmocka_unit_test(iterates_never_leave_the_box),
       cmocka_unit_test(frozen_entries_never_move),

@@ -7,7 +7,7 @@ from ._args import integer, number, path as _path
 from ._errors import HetinvError, check
 from ._handle import Handle, handle_arg, pinned
 from ._lib import PROGRESS_FN, lib
-from ._names import METHODS, OPTIMIZER_PARAMS, STOP_REASONS, STOP_REASONS_INV, lookup  # noqa: F401
+from ._names import COORDINATES, METHODS, OPTIMIZER_PARAMS, STOP_REASONS, STOP_REASONS_INV, lookup  # noqa: F401
 from .context import Context
 from .estimator import Estimator
 from .measurements import Measurements
@@ -85,6 +85,8 @@ class Optimizer(Handle):
         p = lookup(param, OPTIMIZER_PARAMS, "optimizer parameter")
         if p == OPTIMIZER_PARAMS["method"]:
             value = lookup(value, METHODS, "method")
+        elif p == OPTIMIZER_PARAMS["coordinates"]:
+            value = lookup(value, COORDINATES, "coordinates")
         check(lib.optimizer_set_param(self._ptr, p, number(value, "value")))
         return self
 
