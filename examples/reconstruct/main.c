@@ -197,7 +197,8 @@ static int run(int argc, char **argv, outdir_t *dir) {
       fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else {
-      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv}\n", sc.output);
+      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv%s}\n", sc.output,
+             sc.gain_mode != HETINV_GAIN_NONE ? ", gains.csv" : "");
     }
   } else if (status == 0 && root && !bound_only) {
     recon_errors_t e;
@@ -215,7 +216,8 @@ static int run(int argc, char **argv, outdir_t *dir) {
       fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else {
-      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv%s}\n", sc.output,
+      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv%s%s}\n", sc.output,
+             sc.gain_mode != HETINV_GAIN_NONE ? ", gains.csv" : "",
              bound.done ? ", bound.exr, bound_*.png" : "");
     }
   }
