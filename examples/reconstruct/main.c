@@ -15,6 +15,7 @@
  * (measured.c): no simulation, no bound, the truth only if named.
  *
  * Exit status: 0 success, 1 failure (message on stderr), 2 usage error. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -149,6 +150,10 @@ static int run(int argc, char **argv, outdir_t *dir) {
     printf("hetinv-reconstruct: %s: %d x %d x %d voxels, %d rows, %zu values read from %s\n", sc.name,
            (int)sc.grid[0], (int)sc.grid[1], (int)sc.grid[2], (int)hetinv_measurements_row_count(im.set),
            hetinv_measurements_value_count(im.set), sc.measured);
+    if (isfinite(sc.saturation)) {
+      printf("hetinv-reconstruct: acquisition.saturation %g: %zu of %zu values at or above it masked\n",
+             sc.saturation, sc.saturated, hetinv_measurements_value_count(im.set));
+    }
     fflush(stdout);
   } else if (status == 0 && root) {
     printf("hetinv-reconstruct: %s: %d x %d x %d voxels, %d sources, %d rows, %zu values\n", sc.name,
@@ -192,7 +197,8 @@ static int run(int argc, char **argv, outdir_t *dir) {
       fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else {
-      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv}\n", sc.output);
+      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv%s}\n", sc.output,
+             sc.gain_mode != HETINV_GAIN_NONE ? ", gains.csv" : "");
     }
   } else if (status == 0 && root && !bound_only) {
     recon_errors_t e;
@@ -210,7 +216,8 @@ static int run(int argc, char **argv, outdir_t *dir) {
       fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else {
-      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv%s}\n", sc.output,
+      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv%s%s}\n", sc.output,
+             sc.gain_mode != HETINV_GAIN_NONE ? ", gains.csv" : "",
              bound.done ? ", bound.exr, bound_*.png" : "");
     }
   }

@@ -91,8 +91,9 @@ static int check_rows(const scene_t *scene, char *msg, size_t msg_size) {
 }
 
 /* Reads every row's values (and standard errors) and sets them, with
- * weights and a full mask, on the set. */
-static int read_values(hetinv_context_t *ctx, const recon_scene_t *sc, const scene_t *scene,
+ * weights and a full mask, on the set; then masks values at or above
+ * sc->saturation (their count in sc->saturated). */
+static int read_values(hetinv_context_t *ctx, recon_scene_t *sc, const scene_t *scene,
                        char *msg, size_t msg_size) {
   size_t n = hetinv_measurements_value_count(scene->set);
   double *v = calloc(n, sizeof *v), *se = calloc(n, sizeof *se), *w = calloc(n, sizeof *w);
@@ -121,6 +122,10 @@ static int read_values(hetinv_context_t *ctx, const recon_scene_t *sc, const sce
     r = hetinv_measurements_set_values(scene->set, v, se, n);
     if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(scene->set, w, n);
     if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(scene->set, mask, n);
+    sc->saturated = 0;
+    if (r == HETINV_SUCCESS && isfinite(sc->saturation)) {
+      r = hetinv_measurements_mask_saturated(scene->set, sc->saturation, &sc->saturated);
+    }
     if (r != HETINV_SUCCESS) {
       snprintf(msg, msg_size, "%s: %s", sc->measured, hetinv_context_last_error_message(ctx));
       status = -1;

@@ -1,10 +1,14 @@
 /* hetinv-exr-poison: test helper. Copies an OpenEXR file with one value
  * replaced (by "nan", "inf" or a number), to test that readers of
- * measured files refuse it with a message naming the channel and pixel.
+ * measured files refuse it with a message naming the channel and pixel;
+ * or with every value of every channel multiplied by FACTOR (data of an
+ * instrument with another gain, to test the calibration gain).
  *
  *   usage: hetinv-exr-poison IN.exr OUT.exr CHANNEL X Y VALUE
+ *          hetinv-exr-poison IN.exr OUT.exr --scale FACTOR
  */
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,14 +16,35 @@
 #include <hetinv/hetinv.h>
 
 int main(int argc, char **argv) {
-  if (argc != 7) {
-    fprintf(stderr, "usage: %s IN.exr OUT.exr CHANNEL X Y VALUE\n", argv[0]);
+  const bool scale = argc == 5 && strcmp(argv[3], "--scale") == 0;
+  if (argc != 7 && !scale) {
+    fprintf(stderr, "usage: %s IN.exr OUT.exr CHANNEL X Y VALUE\n"
+                    "       %s IN.exr OUT.exr --scale FACTOR\n", argv[0], argv[0]);
     return 2;
   }
   hetinv_context_t *ctx = NULL;
   hetinv_image_t *img = NULL;
   int status = 1;
   int32_t c = -1, w = 0, h = 0;
+  if (scale) {
+    const double factor = atof(argv[4]);
+    int32_t channels = 0;
+    if (hetinv_context_create(NULL, &ctx) != HETINV_SUCCESS || hetinv_image_read_exr(ctx, argv[1], &img) != HETINV_SUCCESS) {
+      fprintf(stderr, "hetinv-exr-poison: %s: %s\n", argv[1], hetinv_context_last_error_message(ctx));
+      goto done;
+    }
+    hetinv_image_get_size(img, &w, &h, &channels);
+    for (int32_t k = 0; k < channels; ++k) {
+      float *px = hetinv_image_channel_data(img, k);
+      for (size_t i = 0; i < (size_t)w * (size_t)h; ++i) px[i] = (float)((double)px[i] * factor);
+    }
+    if (hetinv_image_write_exr(img, argv[2]) != HETINV_SUCCESS) {
+      fprintf(stderr, "hetinv-exr-poison: %s: %s\n", argv[2], hetinv_context_last_error_message(ctx));
+      goto done;
+    }
+    status = 0;
+    goto done;
+  }
   const int x = atoi(argv[4]), y = atoi(argv[5]);
   const float value = strcmp(argv[6], "nan") == 0 ? NAN : strcmp(argv[6], "inf") == 0 ? INFINITY
                                                                                     : (float)atof(argv[6]);

@@ -66,6 +66,9 @@ typedef struct recon_scene {
   char render_scene[1024];
   char measured[1024];          /* folder of <row>.exr */
   char std_errors[1024];        /* folder of <row>_stderr.exr; "" = none */
+  int gain_mode;                /* enum hetinv_gain_mode_id: unknown calibration gain(s) */
+  double saturation;            /* values >= this are masked; +inf = none */
+  size_t saturated;             /* set by recon_files_load: values at or above it */
   bool has_box;                 /* the render scene's box (else the cube of `size`) */
   double box_min[3], box_max[3], eta_out;
   bool has_truth;               /* false (files without "truth"): no errors reported */

@@ -46,6 +46,8 @@ void recon_scene_default(recon_scene_t *sc) {
   hetinv_noise_model_default(&sc->noise_model);
   sc->noise_model.seed = 1;
   sc->weighting = RECON_WEIGHT_RELATIVE;
+  sc->gain_mode = HETINV_GAIN_NONE;
+  sc->saturation = INFINITY;
   sc->truth_photons = 30000;
   sc->photons = 2000;
   sc->batches = 8;
@@ -261,6 +263,11 @@ static int read_files(jr_t *jr, const cJSON *o, recon_scene_t *sc) {
   if (sc->weighting == RECON_WEIGHT_VARIANCE && sc->std_errors[0] == '\0') {
     snprintf(sc->std_errors, sizeof sc->std_errors, "%s", sc->measured);
   }
+  /* Instruments: an unknown calibration gain fitted with the volume, and
+   * a saturation level above which values are left out. */
+  static const char *const gains[] = {"none", "global", "per_emitter", NULL};
+  if (jr_choice(jr, o, "acquisition", "gain", JR_OPTIONAL, gains, &sc->gain_mode) < 0) return -1;
+  if (jr_positive(jr, o, "acquisition", "saturation", JR_OPTIONAL, &sc->saturation) < 0) return -1;
   sc->noise = false;
   sc->has_truth = false; /* unless "truth" names .vol files */
   return 0;
@@ -272,10 +279,10 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (got <= 0) return got;
   static const char *const allowed[] = {"noise", "full_well", "read_noise", "seed", "weighting",
                                         "photons", "measurements", "render_scene", "measured",
-                                        "std_errors", NULL};
+                                        "std_errors", "gain", "saturation", NULL};
   if (jr_check_object(jr, o, "acquisition", allowed) < 0) return -1;
   if (jr_get(o, "render_scene") != NULL) return read_files(jr, o, sc);
-  static const char *const files_only[] = {"measured", "std_errors", NULL};
+  static const char *const files_only[] = {"measured", "std_errors", "gain", "saturation", NULL};
   for (int k = 0; files_only[k]; ++k) {
     char at[JR_PATH_MAX];
     jr_key(at, "acquisition", files_only[k]);

@@ -320,6 +320,8 @@ void scene_destroy(scene_t *sc) {
   for (int i = 0; i < sc->pathlength_count; ++i) {
     hetinv_pathlength_destroy(&sc->pathlengths[i].handle);
     free(sc->pathlengths[i].centres);
+    free(sc->pathlengths[i].irf_offsets);
+    free(sc->pathlengths[i].irf_samples);
   }
   free(sc->emitters);
   free(sc->sensors);

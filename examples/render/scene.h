@@ -51,6 +51,9 @@ typedef struct scene_pathlength {
   int32_t count;           /* bins (1 for steady state) */
   double *centres;         /* bins: count centres */
   double width;            /* bins: width (box) or standard deviation (Gaussian) */
+  int32_t irf_count;       /* bins: IRF samples (0: none) */
+  double *irf_offsets;     /* bins: irf_count pathlength offsets (length unit) */
+  double *irf_samples;     /* bins: irf_count samples as given (the library normalises) */
   const cJSON *json;
   hetinv_pathlength_t *handle;
 } scene_pathlength_t;

@@ -1,5 +1,6 @@
 /* "emitters", "sensors" and "pathlength(s)" → hetinv sampling functions. */
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -370,6 +371,101 @@ int scene_build_sensors(scene_t *sc, jr_t *jr) {
   return 0;
 }
 
+/* Millimetres per length unit, for an IRF's time axis: 0 when the unit is
+ * not one the conversion knows (then offsets must be given in the unit). */
+static double unit_mm(const char *unit) {
+  static const struct { const char *name; double mm; } units[] = {
+      {"mm", 1.0}, {"cm", 10.0}, {"m", 1000.0}, {"um", 1e-3}, {"\u00b5m", 1e-3}, {"\u03bcm", 1e-3}};
+  for (size_t i = 0; i < sizeof units / sizeof units[0]; ++i) {
+    if (strcmp(unit, units[i].name) == 0) return units[i].mm;
+  }
+  return 0.0;
+}
+
+/* A number array key of an IRF: count values into *out (malloc'd). */
+static int read_irf_array(jr_t *jr, const cJSON *irf, const char *irf_at, const char *key,
+                          int *count, double **out) {
+  const cJSON *arr = NULL;
+  char at[JR_PATH_MAX];
+  jr_key(at, irf_at, key);
+  if (jr_array(jr, irf, irf_at, key, JR_REQUIRED, 1, &arr, count) < 0) return -1;
+  if (*count > HETINV_MAX_IRF_SAMPLES) {
+    return jr_fail(jr, at, "%d samples; at most %d (HETINV_MAX_IRF_SAMPLES)", *count,
+                   HETINV_MAX_IRF_SAMPLES);
+  }
+  *out = malloc((size_t)*count * sizeof **out);
+  if (*out == NULL) return jr_fail(jr, at, "out of memory");
+  int i = 0;
+  const cJSON *e;
+  cJSON_ArrayForEach(e, arr) {
+    char e_at[JR_PATH_MAX];
+    jr_index(e_at, at, i);
+    if (jr_item_number(jr, e, e_at, &(*out)[i]) < 0) return -1;
+    ++i;
+  }
+  return 0;
+}
+
+/* "irf": {"samples": [h...], "times_ps": [t...]} or {"samples": [...],
+ * "offsets": [d...]}: an instrument response convolved with the bins
+ * (hetinv_pathlength_create_bins_irf). Times are converted with the
+ * medium's η (τ = c₀ t / η) and the scene's unit. */
+static int read_irf(scene_t *sc, jr_t *jr, const cJSON *item, const char *at,
+                    scene_pathlength_t *pl) {
+  const cJSON *irf = NULL;
+  char irf_at[JR_PATH_MAX], key_at[JR_PATH_MAX];
+  jr_key(irf_at, at, "irf");
+  int got = jr_object(jr, item, at, "irf", JR_OPTIONAL, &irf);
+  if (got <= 0) return got;
+  static const char *const allowed[] = {"samples", "times_ps", "offsets", NULL};
+  if (jr_check_object(jr, irf, irf_at, allowed) < 0) return -1;
+  const bool times = jr_get(irf, "times_ps") != NULL, offsets = jr_get(irf, "offsets") != NULL;
+  if (times == offsets) {
+    return jr_fail(jr, irf_at, "give the samples' axis as \"times_ps\" (picoseconds) or "
+                   "\"offsets\" (pathlength in the scene's unit), %s", times ? "not both" : "one of them");
+  }
+  int n_samples = 0, n_axis = 0;
+  if (read_irf_array(jr, irf, irf_at, "samples", &n_samples, &pl->irf_samples) < 0 ||
+      read_irf_array(jr, irf, irf_at, times ? "times_ps" : "offsets", &n_axis, &pl->irf_offsets) < 0) {
+    return -1;
+  }
+  jr_key(key_at, irf_at, times ? "times_ps" : "offsets");
+  if (n_axis != n_samples) {
+    return jr_fail(jr, key_at, "has %d element%s but \"samples\" has %d; one %s per sample",
+                   n_axis, n_axis == 1 ? "" : "s", n_samples, times ? "time" : "offset");
+  }
+  double sum = 0.0;
+  for (int i = 0; i < n_samples; ++i) {
+    if (pl->irf_samples[i] < 0.0) {
+      jr_key(key_at, irf_at, "samples");
+      char e_at[JR_PATH_MAX];
+      jr_index(e_at, key_at, i);
+      return jr_fail(jr, e_at, "is %g; samples are >= 0 (clip a background-subtracted IRF at 0)",
+                     pl->irf_samples[i]);
+    }
+    sum += pl->irf_samples[i];
+  }
+  if (!(sum > 0.0) || !isfinite(sum)) {
+    jr_key(key_at, irf_at, "samples");
+    return jr_fail(jr, key_at, "add up to %g; expected a finite sum > 0", sum);
+  }
+  if (times) {
+    double mm = unit_mm(sc->unit);
+    if (mm == 0.0) {
+      return jr_fail(jr, key_at, "the scene's unit \"%s\" is none of mm, cm, m, um, so times "
+                     "cannot be converted; give \"offsets\" in the unit instead", sc->unit);
+    }
+    hetinv_result_t r = hetinv_irf_offsets_from_times(pl->irf_offsets, (size_t)n_axis, sc->eta, mm,
+                                                      pl->irf_offsets);
+    if (r != HETINV_SUCCESS) {
+      return jr_fail(jr, key_at, "cannot be converted with eta = %g (%s): the conversion "
+                     "tau = c0 t / eta needs eta >= 1 and finite results", sc->eta, hetinv_result_name(r));
+    }
+  }
+  pl->irf_count = n_samples;
+  return 1;
+}
+
 static int build_pathlength(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const cJSON *item,
                             const char *at, int index, const char *default_name, int numbered,
                             scene_pathlength_t *pl) {
@@ -377,7 +473,7 @@ static int build_pathlength(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const 
   static const char *const windows[] = {"box", "gaussian", NULL};
   static const char *const steady_keys[] = {"name", "type", NULL};
   static const char *const bins_keys[] = {"name", "type", "window", "width", "start", "spacing",
-                                          "count", "centres", NULL};
+                                          "count", "centres", "irf", NULL};
   char buf[96];
   if (!cJSON_IsObject(item)) {
     return jr_fail(jr, at, "expected an object, found %s", jr_describe(item, buf, sizeof buf));
@@ -446,8 +542,18 @@ static int build_pathlength(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const 
       if (pl->centres == NULL) return jr_fail(jr, at, "out of memory");
       for (int32_t i = 0; i < pl->count; ++i) pl->centres[i] = start + (i + 0.5) * spacing;
     }
-    r = hetinv_pathlength_create_bins(ctx, pl->window, pl->count, pl->centres, pl->width,
-                                      &pl->handle);
+    if (read_irf(sc, jr, item, at, pl) < 0) return -1;
+    if (pl->irf_count > 0) {
+      char irf_at[JR_PATH_MAX];
+      jr_key(irf_at, at, "irf");
+      r = hetinv_pathlength_create_bins_irf(ctx, pl->window, pl->count, pl->centres, pl->width,
+                                            pl->irf_count, pl->irf_offsets, pl->irf_samples,
+                                            &pl->handle);
+      if (r != HETINV_SUCCESS) return scene_lib_fail(jr, irf_at, ctx, r);
+    } else {
+      r = hetinv_pathlength_create_bins(ctx, pl->window, pl->count, pl->centres, pl->width,
+                                        &pl->handle);
+    }
   }
   if (r != HETINV_SUCCESS) return scene_lib_fail(jr, at, ctx, r);
   return 0;
