@@ -17,11 +17,12 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "loss_problem.h"
 #include "test_gradient_common.h"
 
 #define COMPARISONS 6
-#define K 6
-#define VALUES 4
+#define K LOSS_K
+#define VALUES LOSS_VALUES
 #define CALLS 3000       /* R loss-gradient calls (epochs 1..R), times the scale */
 #define CALL_PHOTONS 200 /* N photons per call by default: small on purpose, not scaled */
 #define STREAMS 64       /* M for each factor of the reference */
@@ -30,71 +31,9 @@
 static uint64_t seed; /* val_seed(SEED), set in main */
 #define SEED UINT64_C(0x5eed0c01)
 
-static const double weight[VALUES] = {1.0, 2.0, 0.5, 3.0};
-static const uint8_t mask[VALUES] = {1, 1, 1, 0};
-static const double scale_measured[VALUES] = {0.6, 1.4, 0.8, 0.1};
-
-typedef struct problem {
-  hetinv_context_t *ctx;
-  hetinv_medium_t *medium;
-  hetinv_emitter_t *beam;
-  hetinv_sensor_t *top, *bottom, *side, *pixel;
-  hetinv_pathlength_t *steady;
-  hetinv_measurements_t *set;
-  hetinv_param_map_t *map;
-} problem_t;
-
-static void problem_build(problem_t *p) {
-  p->ctx = val_context(seed, 1);
-  assert_ok(hetinv_medium_create(p->ctx, (double[]){0, 0, 0}, (double[]){2, 1, 1},
-                                 (int32_t[]){2, 1, 1}, &p->medium));
-  assert_ok(hetinv_medium_set_ior(p->medium, 1.3, 1.0));
-  assert_ok(hetinv_medium_set_voxel(p->medium, 0, 0, 0, 0.5, 3.0, 0.3));
-  assert_ok(hetinv_medium_set_voxel(p->medium, 1, 0, 0, 0.8, 2.0, 0.5));
-  assert_ok(hetinv_medium_commit(p->medium));
-  assert_ok(hetinv_emitter_create_ideal(p->medium, (double[]){0.5, 0.5, 1.0}, (double[]){0.3, 0.0, -1.0},
-                                        &p->beam));
-  assert_ok(hetinv_sensor_create_hemispherical(p->medium, HETINV_FACE_Z_MAX, NULL, NULL, &p->top));
-  assert_ok(hetinv_sensor_create_hemispherical(p->medium, HETINV_FACE_Z_MIN, NULL, NULL, &p->bottom));
-  assert_ok(hetinv_sensor_create_hemispherical(p->medium, HETINV_FACE_X_MAX, NULL, NULL, &p->side));
-  assert_ok(hetinv_sensor_create_orthographic(p->medium, HETINV_FACE_Z_MAX, (double[]){0, 0, 1},
-                                              (double[]){0, 0}, (double[]){2, 1}, 1, 1, &p->pixel));
-  assert_ok(hetinv_pathlength_create_steady(p->ctx, &p->steady));
-  assert_ok(hetinv_measurements_create(p->ctx, &p->set));
-  assert_ok(hetinv_measurements_add(p->set, p->beam, p->top, p->steady, NULL));
-  assert_ok(hetinv_measurements_add(p->set, p->beam, p->bottom, p->steady, NULL));
-  assert_ok(hetinv_measurements_add(p->set, p->beam, p->side, p->steady, NULL));
-  assert_ok(hetinv_measurements_add(p->set, p->beam, p->pixel, p->steady, NULL));
-  assert_int_equal(hetinv_measurements_value_count(p->set), VALUES);
-  assert_ok(hetinv_param_map_create_identity(p->medium, HETINV_FREE_ALL, &p->map));
-  assert_int_equal(hetinv_param_map_size(p->map), K);
-}
-
-static void problem_destroy(problem_t *p) {
-  hetinv_param_map_destroy(&p->map);
-  hetinv_measurements_destroy(&p->set);
-  hetinv_pathlength_destroy(&p->steady);
-  hetinv_sensor_destroy(&p->pixel);
-  hetinv_sensor_destroy(&p->side);
-  hetinv_sensor_destroy(&p->bottom);
-  hetinv_sensor_destroy(&p->top);
-  hetinv_emitter_destroy(&p->beam);
-  hetinv_medium_destroy(&p->medium);
-  hetinv_context_destroy(&p->ctx);
-}
-
-/* Sets the measured values: this medium's values (stream 60000) scaled. */
-static void set_measured(problem_t *p, double measured[VALUES]) {
-  hetinv_estimator_t *est = val_estimator(p->ctx, 1e5);
-  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, 60000));
-  double v[VALUES];
-  assert_ok(hetinv_estimator_render(est, p->medium, p->set, v, NULL, NULL, VALUES));
-  for (int n = 0; n < VALUES; ++n) measured[n] = scale_measured[n] * v[n];
-  assert_ok(hetinv_measurements_set_values(p->set, measured, NULL, VALUES));
-  assert_ok(hetinv_measurements_set_weights(p->set, weight, VALUES));
-  assert_ok(hetinv_measurements_set_mask(p->set, mask, VALUES));
-  hetinv_estimator_destroy(&est);
-}
+typedef loss_problem_t problem_t;
+static const double *const weight = loss_weight;
+static const uint8_t *const mask = loss_mask;
 
 /* 2 m w k (k C − Ī) with k the least-squares gain of C. */
 static void gain_coef(const double C[VALUES], const double measured[VALUES], double coef[VALUES]) {
@@ -111,9 +50,9 @@ static void gain_coef(const double C[VALUES], const double measured[VALUES], dou
 static void gain_gradient_mean_is_gradient_of_reduced_loss_of_mean(void **state) {
   (void)state;
   problem_t p;
-  problem_build(&p);
+  loss_problem_build(&p, seed);
   double measured[VALUES];
-  set_measured(&p, measured);
+  loss_problem_set_measured(&p, measured);
   double t0 = grad_now();
 
   /* The estimator: R calls of N photons, epochs 1..R. */
@@ -221,7 +160,7 @@ static void gain_gradient_mean_is_gradient_of_reduced_loss_of_mean(void **state)
     failures += !grad_compare(name, ref, ref_se, ref_dof, mean, se, calls - 1.0, COMPARISONS, seed);
   }
   free(samples);
-  problem_destroy(&p);
+  loss_problem_destroy(&p);
   printf("%d of %d comparisons beyond the bound (the gain's bias at %.0f photons per call)\n",
          failures, K, call_photons);
 }
