@@ -1,5 +1,9 @@
 #include "loss_problem.h"
 
+#include <math.h>
+
+#include "test_gradient_common.h"
+
 const double loss_weight[LOSS_VALUES] = {1.0, 2.0, 0.5, 3.0};
 const uint8_t loss_mask[LOSS_VALUES] = {1, 1, 1, 0};
 static const double scale_measured[LOSS_VALUES] = {0.6, 1.4, 0.8, 0.1};
@@ -54,4 +58,44 @@ void loss_problem_set_measured(loss_problem_t *p, double measured[LOSS_VALUES]) 
   assert_ok(hetinv_measurements_set_weights(p->set, loss_weight, LOSS_VALUES));
   assert_ok(hetinv_measurements_set_mask(p->set, loss_mask, LOSS_VALUES));
   hetinv_estimator_destroy(&est);
+}
+
+double loss_problem_reference(const loss_problem_t *p, double D[LOSS_STREAMS][LOSS_VALUES][LOSS_K],
+                              double C[LOSS_STREAMS][LOSS_VALUES]) {
+  hetinv_estimator_t *est = NULL;
+  assert_ok(hetinv_estimator_create(p->ctx, &est));
+  double per_stream = floor(LOSS_REF_PHOTONS * (double)HETINV_VALIDATION_SCALE / LOSS_STREAMS + 0.5);
+  if (per_stream < 64) per_stream = 64;
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, per_stream));
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
+  hetinv_medium_t *plus[LOSS_K], *minus[LOSS_K];
+  double h[LOSS_K];
+  for (int k = 0; k < LOSS_K; ++k) {
+    hetinv_param_t param;
+    size_t cell;
+    assert_ok(hetinv_param_map_entry(p->map, (size_t)k, &param, &cell));
+    int32_t vox[3] = {(int32_t)cell, 0, 0};
+    double v[3];
+    assert_ok(hetinv_medium_get_voxel(p->medium, vox[0], 0, 0, &v[0], &v[1], &v[2]));
+    h[k] = param == HETINV_PARAM_G ? 0.05 : 0.1 * v[param];
+    plus[k] = grad_perturbed(p->medium, vox, param, v[param] + h[k]);
+    minus[k] = grad_perturbed(p->medium, vox, param, v[param] - h[k]);
+  }
+  for (int j = 0; j < LOSS_STREAMS; ++j) {
+    assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, j));
+    for (int k = 0; k < LOSS_K; ++k) {
+      double ip[LOSS_VALUES], im[LOSS_VALUES];
+      assert_ok(hetinv_estimator_render(est, plus[k], p->set, ip, NULL, NULL, LOSS_VALUES));
+      assert_ok(hetinv_estimator_render(est, minus[k], p->set, im, NULL, NULL, LOSS_VALUES));
+      for (int n = 0; n < LOSS_VALUES; ++n) D[j][n][k] = (ip[n] - im[n]) / (2.0 * h[k]);
+    }
+    assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, LOSS_STREAMS + j));
+    assert_ok(hetinv_estimator_render(est, p->medium, p->set, C[j], NULL, NULL, LOSS_VALUES));
+  }
+  for (int k = 0; k < LOSS_K; ++k) {
+    hetinv_medium_destroy(&plus[k]);
+    hetinv_medium_destroy(&minus[k]);
+  }
+  hetinv_estimator_destroy(&est);
+  return per_stream;
 }

@@ -12,6 +12,8 @@
 
 #define LOSS_K 6      /* σa, σs, g of both voxels */
 #define LOSS_VALUES 4 /* one per row */
+#define LOSS_STREAMS 64     /* M for each factor of the reference */
+#define LOSS_REF_PHOTONS 1e6 /* photons per FD render (all streams), and for Ī(π) */
 
 extern const double loss_weight[LOSS_VALUES];
 extern const uint8_t loss_mask[LOSS_VALUES];
@@ -31,5 +33,11 @@ void loss_problem_destroy(loss_problem_t *p);
 
 /* Sets the measured values (returned in measured), weights and mask. */
 void loss_problem_set_measured(loss_problem_t *p, double measured[LOSS_VALUES]);
+
+/* The two factors of the reference gradient: per stream j, D^(j)_{n,k}
+ * (central differences on common random numbers) and, from stream
+ * LOSS_STREAMS + j, C^(j)_n = I_n(π). Returns the photons of each render. */
+double loss_problem_reference(const loss_problem_t *p, double D[LOSS_STREAMS][LOSS_VALUES][LOSS_K],
+                              double C[LOSS_STREAMS][LOSS_VALUES]);
 
 #endif

@@ -25,8 +25,7 @@
 #define VALUES LOSS_VALUES
 #define CALLS 3000       /* R loss-gradient calls (epochs 1..R), times the scale */
 #define CALL_PHOTONS 200 /* N photons per call by default: small on purpose, not scaled */
-#define STREAMS 64       /* M for each factor of the reference */
-#define REF_PHOTONS 1e6  /* photons per FD render (all streams), and for Ī(π) */
+#define STREAMS LOSS_STREAMS
 
 static uint64_t seed; /* val_seed(SEED), set in main */
 #define SEED UINT64_C(0x5eed0c01)
@@ -77,43 +76,9 @@ static void gain_gradient_mean_is_gradient_of_reduced_loss_of_mean(void **state)
   hetinv_estimator_destroy(&est);
   double t1 = grad_now();
 
-  /* The reference: per stream j, D^(j)_{n,k} (CRN central differences)
-   * and, from stream STREAMS + j, C^(j)_n = I_n(π). */
-  assert_ok(hetinv_estimator_create(p.ctx, &est));
-  double per_stream = floor(REF_PHOTONS * (double)HETINV_VALIDATION_SCALE / STREAMS + 0.5);
-  if (per_stream < 64) per_stream = 64;
-  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, per_stream));
-  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
+  /* The reference's two factors (loss_problem_reference). */
   static double D[STREAMS][VALUES][K], C[STREAMS][VALUES];
-  hetinv_medium_t *plus[K], *minus[K];
-  double h[K];
-  for (int k = 0; k < K; ++k) {
-    hetinv_param_t param;
-    size_t cell;
-    assert_ok(hetinv_param_map_entry(p.map, (size_t)k, &param, &cell));
-    int32_t vox[3] = {(int32_t)cell, 0, 0};
-    double v[3];
-    assert_ok(hetinv_medium_get_voxel(p.medium, vox[0], 0, 0, &v[0], &v[1], &v[2]));
-    h[k] = param == HETINV_PARAM_G ? 0.05 : 0.1 * v[param];
-    plus[k] = grad_perturbed(p.medium, vox, param, v[param] + h[k]);
-    minus[k] = grad_perturbed(p.medium, vox, param, v[param] - h[k]);
-  }
-  for (int j = 0; j < STREAMS; ++j) {
-    assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, j));
-    for (int k = 0; k < K; ++k) {
-      double ip[VALUES], im[VALUES];
-      assert_ok(hetinv_estimator_render(est, plus[k], p.set, ip, NULL, NULL, VALUES));
-      assert_ok(hetinv_estimator_render(est, minus[k], p.set, im, NULL, NULL, VALUES));
-      for (int n = 0; n < VALUES; ++n) D[j][n][k] = (ip[n] - im[n]) / (2.0 * h[k]);
-    }
-    assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, STREAMS + j));
-    assert_ok(hetinv_estimator_render(est, p.medium, p.set, C[j], NULL, NULL, VALUES));
-  }
-  for (int k = 0; k < K; ++k) {
-    hetinv_medium_destroy(&plus[k]);
-    hetinv_medium_destroy(&minus[k]);
-  }
-  hetinv_estimator_destroy(&est);
+  double per_stream = loss_problem_reference(&p, D, C);
   double t2 = grad_now();
   printf("loss gradient: %d calls of %.0f photons in %.1f s; reference: %d streams x %d renders "
          "of %.0f photons in %.1f s\n",
