@@ -5,6 +5,7 @@
  *
  *   hetinv-bench-reconstruct [--iterations N] [--photons N] [--truth-photons N]
  *                            [--threads N] [-o DIR] [--require MEAN,MAX] [--seeds A-B]
+ *                            [--scene FILE]
  *
  * --iterations: of the finest stage (default the scene's, 600); coarser
  * stages get the scene's fraction of it, as in hetinv-reconstruct.
@@ -14,6 +15,10 @@
  * the simulation of 96 sources dominates a short run).
  * --threads: 0 = all cores (default the scene's). Without -o the outputs go
  * to a temporary directory that is removed at the end.
+ * --scene FILE: a hetinv-reconstruct scene read over the built-in one
+ * before the other options (e.g. {"acquisition": {"weighting": "relative"}}
+ * to measure a variant on every volume); --seeds still sets the truth and
+ * noise seeds of each volume.
  *
  * Output, one line per figure (DESIGN §8):
  *
@@ -56,6 +61,7 @@ static void usage(FILE *f) {
   fprintf(f,
           "usage: " PROG " [--iterations N] [--photons N] [--truth-photons N]\n"
           "                                [--threads N] [-o DIR] [--require MEAN,MAX] [--seeds A-B]\n"
+          "                                [--scene FILE]\n"
           "  --iterations N  iterations of the finest stage (default: the scene's)\n"
           "  --photons N     photons per emitter of the optimiser (default: the scene's)\n"
           "  --truth-photons N  photons per emitter of the simulated measurements\n"
@@ -65,7 +71,8 @@ static void usage(FILE *f) {
           "  --require MEAN,MAX  exit 3 if a parameter's mean or max relative error is\n"
           "                  above these (e.g. 0.07,0.15)\n"
           "  --seeds A-B     run truth volumes A..B (truth and noise seed s), one\n"
-          "                  summary line each and a pass count\n");
+          "                  summary line each and a pass count\n"
+          "  --scene FILE    a hetinv-reconstruct scene read over the built-in one\n");
 }
 
 /* Removes a directory this program created and the plain files in it. */
@@ -176,7 +183,7 @@ static int parse_seeds(const char *text, int64_t *first, int64_t *last) {
 int main(int argc, char **argv) {
   recon_scene_t sc;
   recon_scene_default(&sc);
-  const char *out_dir = NULL;
+  const char *out_dir = NULL, *scene_path = NULL;
   int64_t iterations = -1, photons = -1, truth_photons = -1, threads = -1, seed_first = -1, seed_last = -1;
   double require[2] = {-1.0, -1.0};
   for (int i = 1; i < argc; ++i) {
@@ -208,12 +215,26 @@ int main(int argc, char **argv) {
         return 2;
       }
       ++i;
+    } else if (strcmp(a, "--scene") == 0 && v) {
+      scene_path = v;
+      ++i;
     } else if ((strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) && v) {
       out_dir = v;
       ++i;
     } else {
       fprintf(stderr, PROG ": unknown or incomplete option '%s'\n", a);
       usage(stderr);
+      return 2;
+    }
+  }
+  if (scene_path) {
+    char msg[2048];
+    if (recon_scene_read(scene_path, &sc, msg, sizeof msg) != 0) {
+      fprintf(stderr, PROG ": %s\n", msg);
+      return 2;
+    }
+    if (sc.render_scene[0]) {
+      fprintf(stderr, PROG ": %s: acquisition.render_scene: the benchmark simulates its acquisition\n", scene_path);
       return 2;
     }
   }

@@ -25,12 +25,16 @@ static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *
                                     double *var, uint8_t *mask) {
   size_t n = hetinv_measurements_value_count(im->set);
   double *clean = calloc(n, sizeof *clean), *scratch = calloc(n, sizeof *scratch);
+  double *mc = calloc(n, sizeof *mc);
   hetinv_estimator_t *est = NULL;
-  hetinv_result_t r = clean && scratch ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  hetinv_result_t r = clean && scratch && mc ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
   if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)photons);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, RECON_TRUTH_STREAM);
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, clean, NULL, NULL, n);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, clean, mc, NULL, n);
+  /* The simulated data are a render at the scene's photons: its Monte Carlo
+   * variance, scaled from this render's, is part of their noise. */
+  const double mc_scale = (double)photons / (double)sc->truth_photons;
   const uint8_t *set_mask = hetinv_measurements_mask(im->set);
   int32_t rows = hetinv_measurements_row_count(im->set);
   for (int32_t row = 0; r == HETINV_SUCCESS && row < rows; ++row) {
@@ -56,13 +60,14 @@ static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *
       double e = exposure * clean[off + i] + read2;
       /* A noiseless camera (read noise 0) still counts photons: at least
        * one electron's variance keeps dark pixels finite. */
-      var[off + i] = (e > 1.0 ? e : 1.0) / (exposure * exposure);
+      var[off + i] = (e > 1.0 ? e : 1.0) / (exposure * exposure) + mc[off + i] * mc[off + i] * mc_scale;
       mask[off + i] = set_mask[off + i];
     }
   }
   hetinv_estimator_destroy(&est);
   free(clean);
   free(scratch);
+  free(mc);
   return r;
 }
 
@@ -269,11 +274,23 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
   return r;
 }
 
-void recon_bound_attach(const recon_bound_t *b, recon_errors_t *e) {
+void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
+                        const hetinv_medium_t *rec, recon_errors_t *e) {
   e->has_bound = b->done;
+  size_t voxels = hetinv_medium_voxel_count(truth);
   for (int p = 0; p < 3; ++p) {
     e->bound_mean[p] = b->done ? b->mean[p] : (double)NAN;
     e->achieved_over_bound[p] = b->done ? e->mean[p] / b->mean[p] : (double)NAN;
+    e->max_over_bound[p] = b->done ? 0.0 : (double)NAN;
+    e->over_2x_bound[p] = e->bounded[p] = 0;
+    const double *t = hetinv_medium_grid(truth, p), *x = hetinv_medium_grid(rec, p);
+    for (size_t v = 0; b->done && v < voxels; ++v) {
+      if (!isfinite(b->rel[p][v]) || !(b->rel[p][v] > 0.0)) continue;
+      double ratio = fabs(x[v] - t[v]) / fabs(t[v]) / b->rel[p][v];
+      e->max_over_bound[p] = fmax(e->max_over_bound[p], ratio);
+      e->over_2x_bound[p] += ratio > 2.0;
+      ++e->bounded[p];
+    }
   }
 }
 

@@ -87,6 +87,7 @@ typedef struct recon_scene {
   double time_budget;
   double bounds_lo[3], bounds_hi[3];
   double init[3];               /* uniform initial values */
+  bool init_at_truth;           /* start at the truth instead (a diagnostic) */
   int32_t level_count;          /* multi-resolution: cells per axis of each stage */
   int32_t levels[RECON_MAX_LEVELS];
   int32_t layerwise_layers;     /* > 0: layer-wise stages first (Fig. 2b) */
@@ -182,12 +183,17 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *scene,
                             hetinv_medium_t **out, double *seconds, char *msg, size_t msg_size);
 
 /* Relative errors |x̂ − x| / x over the voxels, per parameter; with
- * has_bound, also the mean predicted relative standard deviation (bound.c)
- * and achieved/bound = mean error / mean bound. */
+ * has_bound, also the mean predicted relative standard deviation (bound.c),
+ * achieved/bound = mean error / mean bound, and per voxel error / its own
+ * bound: the largest, and how many of the `bounded` voxels (finite bound)
+ * are above 2 (an efficient unbiased recovery has about 4.6 % of them
+ * there by chance: P(|z| > 2)). */
 typedef struct recon_errors {
   double mean[3], max[3];
   bool has_bound;
   double bound_mean[3], achieved_over_bound[3];
+  double max_over_bound[3];
+  size_t over_2x_bound[3], bounded[3];
 } recon_errors_t;
 void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *recovered, recon_errors_t *e);
 
@@ -251,7 +257,9 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
 int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *scene,
                     const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
                     int32_t replicates, bool root, recon_bound_t *b);
-/* Fills e's bound columns from b (no-op if b was not computed). */
-void recon_bound_attach(const recon_bound_t *b, recon_errors_t *e);
+/* Fills e's bound columns from b and the recovery (no-op if b was not
+ * computed). */
+void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
+                        const hetinv_medium_t *recovered, recon_errors_t *e);
 
 #endif

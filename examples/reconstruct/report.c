@@ -127,10 +127,14 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
   if (f != NULL) {
     fprintf(f, "parameter,mean_relative_error,max_relative_error%s\n",
-            e->has_bound ? ",mean_relative_bound,achieved_over_bound" : "");
+            e->has_bound ? ",mean_relative_bound,achieved_over_bound,max_voxel_error_over_bound,"
+                           "voxels_over_2x_bound,voxels_bounded" : "");
     for (int p = 0; p < 3; ++p) {
       fprintf(f, "%s,%.6f,%.6f", hetinv_param_name(p), e->mean[p], e->max[p]);
-      if (e->has_bound) fprintf(f, ",%.6g,%.6g", e->bound_mean[p], e->achieved_over_bound[p]);
+      if (e->has_bound) {
+        fprintf(f, ",%.6g,%.6g,%.6g,%zu,%zu", e->bound_mean[p], e->achieved_over_bound[p], e->max_over_bound[p],
+                e->over_2x_bound[p], e->bounded[p]);
+      }
       fprintf(f, "\n");
     }
   }

@@ -45,7 +45,11 @@ void recon_scene_default(recon_scene_t *sc) {
   sc->noise = true;
   hetinv_noise_model_default(&sc->noise_model);
   sc->noise_model.seed = 1;
-  sc->weighting = RECON_WEIGHT_RELATIVE;
+  /* 1/σ² with σ the value's whole standard error (camera and the truth
+   * render's own Monte Carlo error): the weighting under which the fit is
+   * the maximum-likelihood one the bound describes. Relative weights
+   * 1/v², taken from the noisy values, biased the fit (docs/results/seeds.md). */
+  sc->weighting = RECON_WEIGHT_VARIANCE;
   sc->gain_mode = HETINV_GAIN_NONE;
   sc->saturation = INFINITY;
   sc->truth_photons = 30000;
@@ -258,6 +262,8 @@ static int read_files(jr_t *jr, const cJSON *o, recon_scene_t *sc) {
     return -1;
   }
   static const char *const weights[] = {"variance", "relative", "uniform", NULL};
+  /* From files the default needs no standard-error files. */
+  sc->weighting = RECON_WEIGHT_RELATIVE;
   if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, weights, &sc->weighting) < 0) return -1;
   /* Variances come from the standard-error files hetinv-render writes beside the values. */
   if (sc->weighting == RECON_WEIGHT_VARIANCE && sc->std_errors[0] == '\0') {
@@ -333,7 +339,14 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_number(jr, o, "optimizer", "time_budget", JR_OPTIONAL, &sc->time_budget) < 0) return -1;
   if (read_triplet_object(jr, o, "optimizer", "bounds", sc->bounds_lo, sc->bounds_hi) < 0) return -1;
   for (int p = 0; p < 3; ++p) sc->init[p] = 0.5 * (sc->bounds_lo[p] + sc->bounds_hi[p]);
-  if (jr_numbers(jr, o, "optimizer", "init", JR_OPTIONAL, 3, sc->init) < 0) return -1;
+  /* "truth": start at the truth, a diagnostic (docs/reconstruct-format.md). */
+  const cJSON *init = jr_get(o, "init");
+  sc->init_at_truth = cJSON_IsString(init) && strcmp(init->valuestring, "truth") == 0;
+  if (cJSON_IsString(init) && !sc->init_at_truth) {
+    return jr_fail(jr, "optimizer.init", "is \"%.40s\"; expected three numbers [sigma_a, sigma_s, g] or \"truth\"",
+                   init->valuestring);
+  }
+  if (!sc->init_at_truth && jr_numbers(jr, o, "optimizer", "init", JR_OPTIONAL, 3, sc->init) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "layerwise_layers", 0, RECON_MAX_LAYERS, &sc->layerwise_layers) < 0) return -1;
   const cJSON *arr = NULL;
   int count = 0;
@@ -439,6 +452,10 @@ int recon_scene_check(const recon_scene_t *sc, char *msg, size_t n) {
                PARAM_KEYS[p], sc->init[p], sc->bounds_lo[p], sc->bounds_hi[p]);
       return -1;
     }
+  }
+  if (sc->init_at_truth && !sc->has_truth) {
+    snprintf(msg, n, "optimizer.init: \"truth\" needs a truth to start from (truth.vol in this mode)");
+    return -1;
   }
   /* From files "imaging" is refused, so its defaults (which pass) are checked below. */
   if (!files && (sc->grid[1] == 1 && (sc->source_faces | sc->camera_faces) & (1u << HETINV_FACE_Y_MIN | 1u << HETINV_FACE_Y_MAX))) {

@@ -159,8 +159,11 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   hetinv_optimizer_t *opt = NULL;
   hetinv_estimator_t *est = NULL;
   hetinv_param_map_t *maps[RECON_MAX_LEVELS + 1] = {NULL};
-  hetinv_result_t r = recon_medium_create(ctx, sc, &init);
-  if (r == HETINV_SUCCESS) r = hetinv_medium_fill(init, sc->init[0], sc->init[1], sc->init[2]);
+  /* From the truth (optimizer.init "truth"), a recovery that moves away was
+   * moved by the data or by the estimator's noise, not by its path from a
+   * distant start. */
+  hetinv_result_t r = sc->init_at_truth ? recon_truth_create(ctx, sc, &init) : recon_medium_create(ctx, sc, &init);
+  if (r == HETINV_SUCCESS && !sc->init_at_truth) r = hetinv_medium_fill(init, sc->init[0], sc->init[1], sc->init[2]);
   if (r == HETINV_SUCCESS) r = hetinv_medium_commit(init);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_create(ctx, im->set, init, &opt);
   if (r == HETINV_SUCCESS) r = configure(opt, sc);
