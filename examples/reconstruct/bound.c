@@ -291,6 +291,7 @@ void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
       e->over_2x_bound[p] += ratio > 2.0;
       ++e->bounded[p];
     }
+    if (e->bounded[p] == 0) e->max_over_bound[p] = (double)NAN; /* no voxel has a bound */
   }
 }
 
