@@ -71,6 +71,20 @@ static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *
   return r;
 }
 
+/* From measured files: the standard errors given with the values
+ * (acquisition.std_errors) are their noise; a value without one (σ = 0) or
+ * masked carries no information here. */
+static void variances_given(const recon_imaging_t *im, double *var, uint8_t *mask) {
+  size_t n = hetinv_measurements_value_count(im->set);
+  const double *se = hetinv_measurements_std_errors(im->set);
+  const uint8_t *set_mask = hetinv_measurements_mask(im->set);
+  for (size_t i = 0; i < n; ++i) {
+    bool known = se != NULL && se[i] > 0.0 && (set_mask == NULL || set_mask[i]);
+    var[i] = known ? se[i] * se[i] : 1.0;
+    mask[i] = known;
+  }
+}
+
 static int compare_double(const void *a, const void *b) {
   double x = *(const double *)a, y = *(const double *)b;
   return (x > y) - (x < y);
@@ -146,7 +160,11 @@ hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *
   }
   if (r == HETINV_SUCCESS) {
     memcpy(saved_mask, hetinv_measurements_mask(im->set), n);
-    r = variances_of(ctx, sc, truth, im, photons, var, mask);
+    if (sc->render_scene[0] != '\0') {
+      variances_given(im, var, mask);
+    } else {
+      r = variances_of(ctx, sc, truth, im, photons, var, mask);
+    }
   }
   if (r == HETINV_SUCCESS) r = hetinv_param_map_extract(map, truth, pi, k);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
@@ -198,9 +216,10 @@ void recon_bound_release(recon_bound_t *b) {
 }
 
 void recon_bound_print(const recon_bound_t *b, FILE *f) {
-  fprintf(f, "\nCramer-Rao bound at the truth: predicted relative standard deviation of an unbiased\n"
+  fprintf(f, "\nCramer-Rao bound at the %s: predicted relative standard deviation of an unbiased\n"
              "estimate, per voxel (%lld photons per emitter, %d replicates, %.1f s):\n",
-          (long long)b->photons, (int)b->replicates, b->seconds);
+          b->at_recovery ? "recovery (no truth given)" : "truth", (long long)b->photons, (int)b->replicates,
+          b->seconds);
   if (!b->positive_definite) {
     fprintf(f, "  the estimated Fisher matrix is not positive definite: the measurements cannot tell\n"
                "  some parameters apart at this photon count (more --bound-photons, or a coarser map)\n");
@@ -297,7 +316,7 @@ void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
 
 int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *sc,
                     const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
-                    int32_t replicates, bool root, recon_bound_t *b) {
+                    int32_t replicates, bool root, bool at_recovery, recon_bound_t *b) {
   memset(b, 0, sizeof *b);
   if (hetinv_context_rank_count(ctx) > 1) {
     if (root) printf("%s: the bound is not computed with several MPI ranks\n", prog);
@@ -306,6 +325,7 @@ int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t
   if (recon_bound_compute(ctx, sc, truth, im, photons, replicates, b) != HETINV_SUCCESS) {
     return recon_fail(prog, ctx, "bound");
   }
+  b->at_recovery = at_recovery;
   if (!root) return 0;
   recon_bound_print(b, stdout);
   /* The caller says "wrote" once every file of the run is written. */

@@ -107,9 +107,17 @@ static int run(int argc, char **argv, outdir_t *dir) {
     return 1;
   }
   const bool files = sc.render_scene[0] != '\0';
-  /* The bound is computed at the truth's clean values, which measured data do not give. */
-  if (files && bound_only) return usage("--bound-only: a reconstruction from measured files has no truth to compute the bound at");
-  if (files) no_bound = true;
+  /* From files the bound takes the noise from the standard errors given,
+   * and is evaluated at the truth if one is named, else at the recovery. */
+  if (files && bound_only && !sc.has_truth) {
+    return usage("--bound-only: from measured files the bound is evaluated at the truth (truth.vol), or "
+                 "without one after the recovery, at it");
+  }
+  if (files && bound_only && sc.std_errors[0] == '\0') {
+    return usage("--bound-only: the bound needs the measurements' standard errors (acquisition.std_errors)");
+  }
+  const bool no_std_errors = files && sc.std_errors[0] == '\0';
+  if (no_std_errors) no_bound = true;
   if (out_dir) snprintf(sc.output, sizeof sc.output, "%s", out_dir);
   if (threads >= 0) sc.threads = (int32_t)threads;
   if (iterations > 0) sc.iterations = iterations;
@@ -180,9 +188,10 @@ static int run(int argc, char **argv, outdir_t *dir) {
   }
   recon_bound_t bound;
   memset(&bound, 0, sizeof bound);
-  if (status == 0 && (bound_only || !no_bound)) {
-    status = recon_bound_run("hetinv-reconstruct", ctx, &sc, truth, &im, bound_photons > 0 ? bound_photons : sc.photons,
-                             (int32_t)bound_replicates, root, &bound);
+  const int64_t bphotons = bound_photons > 0 ? bound_photons : sc.photons;
+  if (status == 0 && truth != NULL && (bound_only || !no_bound)) {
+    status = recon_bound_run("hetinv-reconstruct", ctx, &sc, truth, &im, bphotons, (int32_t)bound_replicates, root,
+                             false, &bound);
   }
   if (status == 0 && root && bound_only && bound.done) printf("wrote %s/{bound.exr, bound_*.png}\n", sc.output);
   double seconds = 0.0;
@@ -191,14 +200,20 @@ static int run(int argc, char **argv, outdir_t *dir) {
     fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
     status = 1;
   }
+  if (status == 0 && truth == NULL && !no_bound) {
+    status = recon_bound_run("hetinv-reconstruct", ctx, &sc, rec, &im, bphotons, (int32_t)bound_replicates, root,
+                             true, &bound);
+  } else if (status == 0 && root && no_std_errors && !quiet) {
+    printf("no bound: the measurements have no standard errors (acquisition.std_errors)\n");
+  }
   if (status == 0 && root && !bound_only && truth == NULL) {
     printf("optimisation %.1f s, total %.1f s (no truth given: no errors)\n", seconds, recon_now() - t0);
     if (recon_write_outputs(ctx, &sc, NULL, rec, NULL, msg, sizeof msg) != HETINV_SUCCESS) {
       fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else {
-      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv%s}\n", sc.output,
-             sc.gain_mode != HETINV_GAIN_NONE ? ", gains.csv" : "");
+      printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv%s%s}\n", sc.output,
+             sc.gain_mode != HETINV_GAIN_NONE ? ", gains.csv" : "", bound.done ? ", bound.exr, bound_*.png" : "");
     }
   } else if (status == 0 && root && !bound_only) {
     recon_errors_t e;

@@ -222,14 +222,17 @@ int recon_parse_count(const char *prog, const char *opt, const char *text, int64
 double recon_now(void);
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
 
-/* The Cramér–Rao bound of the configuration at the truth (bound.c):
- * per voxel and parameter the predicted relative standard deviation
- * sd/value of any unbiased estimate (hetinv_estimator_crb with an
- * identity map of all three parameters), under the scene's noise model
- * at the clean values. rel: +inf where nothing reaches the voxel, NaN if
- * the estimated Fisher matrix is not positive definite. */
+/* The Cramér–Rao bound of the configuration at a medium, the truth or,
+ * from measured files without one, the recovery (bound.c): per voxel and
+ * parameter the predicted relative standard deviation sd/value of any
+ * unbiased estimate (hetinv_estimator_crb with an identity map of all
+ * three parameters), under the scene's noise model at the clean values
+ * plus the simulated data's render error, or from files the given
+ * standard errors. rel: +inf where nothing reaches the voxel, NaN if the
+ * estimated Fisher matrix is not positive definite. */
 typedef struct recon_bound {
   bool done;
+  bool at_recovery; /* evaluated at the recovery, not at the truth */
   int32_t positive_definite;
   double *rel[3], *rel_se[3];       /* per voxel (linear order) */
   double *lower[3];                  /* sqrt(1/F_kk)/value: a lower bound of rel */
@@ -255,8 +258,8 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
 /* Computes, prints (root) and writes (root) the bound; with several MPI
  * ranks it is skipped (b->done false). 0, or 1 after a message. */
 int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *scene,
-                    const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
-                    int32_t replicates, bool root, recon_bound_t *b);
+                    const hetinv_medium_t *at, recon_imaging_t *im, int64_t photons,
+                    int32_t replicates, bool root, bool at_recovery, recon_bound_t *b);
 /* Fills e's bound columns from b and the recovery (no-op if b was not
  * computed). */
 void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
