@@ -9,13 +9,14 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   snprintf(key, key_size,
            "config=%d grid=%dx%dx%d size=%.17g eta=%.17g truth_seed=%llu noise_seed=%llu "
            "truth=%.17g:%.17g,%.17g:%.17g,%.17g:%.17g bounds=%.17g:%.17g,%.17g:%.17g,%.17g:%.17g "
-           "pixels_per_voxel=%d bin_width=%.17g iterations=%lld photons=%lld truth_photons=%lld seed=%llu",
+           "pixels_per_voxel=%d bin_width=%.17g iterations=%lld photons=%lld truth_photons=%lld seed=%llu "
+           "weighting=%d",
            (int)sc->config, (int)sc->grid[0], (int)sc->grid[1], (int)sc->grid[2], sc->size, sc->eta,
            (unsigned long long)sc->truth_seed, (unsigned long long)sc->noise_model.seed, sc->truth_lo[0],
            sc->truth_hi[0], sc->truth_lo[1], sc->truth_hi[1], sc->truth_lo[2], sc->truth_hi[2], sc->bounds_lo[0],
            sc->bounds_hi[0], sc->bounds_lo[1], sc->bounds_hi[1], sc->bounds_lo[2], sc->bounds_hi[2],
            (int)sc->pixels_per_voxel, sc->bin_width, (long long)sc->iterations, (long long)sc->photons,
-           (long long)sc->truth_photons, (unsigned long long)sc->seed);
+           (long long)sc->truth_photons, (unsigned long long)sc->seed, sc->weighting);
 }
 
 static const char *const NAMES[3] = {"sigma_a", "sigma_s", "g"};
