@@ -56,6 +56,10 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
     if (!lit) { /* nothing reached this row: a dark frame of read noise only */
       memset(v + off, 0, len * sizeof *v);
       for (size_t i = 0; i < len; ++i) se[off + i] = 0.0;
+      /* Its exposure, and so its noise, is undefined: left out, as the
+       * bound leaves it out (a zero σ would give it a weight 10¹² times
+       * the brightest value's under the variance weighting). */
+      memset(mask + off, 0, len);
       continue;
     }
     hetinv_noise_model_t model = sc->noise_model;
