@@ -8,6 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]
+ *               [--write-scenes]
  *
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
  * cube, 6 × 6 section, one 0.1 mm imaging pixel and bin per voxel; 2
@@ -23,7 +24,12 @@
  * DIR/config<c>_volume<v>/cell.csv with its errors, time and a key of
  * every setting it depends on; a rerun with the same settings reads it
  * back instead of recomputing, and an interrupted cell continues from its
- * checkpoint. Delete a cell's folder to recompute it. */
+ * checkpoint. Delete a cell's folder to recompute it.
+ *
+ * --write-scenes writes every selected cell's set-up as files instead
+ * (DIR/config<c>_volume<v>/scene/{render.json, truth_*.vol,
+ * reconstruct.json}; hetinv-reconstruct --write-scene) for a user to
+ * edit, render with hetinv-render and reconstruct from. */
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,7 +43,8 @@ static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]\n",
+          "                   [--photons N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]\n"
+          "                   [--write-scenes]\n",
           what);
   return 2;
 }
@@ -97,6 +104,34 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
   snprintf(sc->output, sizeof sc->output, "%s/config%d_volume%d", out, c, v + 1);
 }
 
+/* Writes one cell's set-up as a render scene, its truth and the
+ * reconstruction from the rendered files, in <cell>/scene. */
+static int write_cell_scene(recon_scene_t *sc) {
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.seed = sc->seed;
+  hetinv_context_t *ctx = NULL;
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return recon_fail("hetinv-fig4", NULL, "context");
+  char dir[1100], msg[2048] = "";
+  snprintf(dir, sizeof dir, "%s/scene", sc->output);
+  hetinv_medium_t *truth = NULL;
+  recon_imaging_t im;
+  memset(&im, 0, sizeof im);
+  int status = outdir_prepare("hetinv-fig4", dir) != 0;
+  if (status == 0 && (recon_truth_create(ctx, sc, &truth) != HETINV_SUCCESS ||
+                      recon_imaging_build(ctx, truth, sc, &im) != HETINV_SUCCESS)) {
+    status = recon_fail("hetinv-fig4", ctx, sc->name);
+  } else if (status == 0 && recon_preset_write(ctx, sc, truth, &im, dir, msg, sizeof msg) < 0) {
+    fprintf(stderr, "hetinv-fig4: %s\n", msg);
+    status = 1;
+  } else if (status == 0) {
+    printf("%s: wrote %s/{render.json, reconstruct.json, truth_*.vol}\n", sc->name, dir);
+  }
+  hetinv_medium_destroy(&truth);
+  recon_imaging_release(&im);
+  hetinv_context_destroy(&ctx);
+  return status;
+}
+
 /* Simulates, reconstructs and writes one cell's outputs; an interrupted
  * earlier run of the same cell continues from its checkpoint. */
 static int run_cell(const recon_scene_t *sc, int64_t threads, bool quiet, experiment_cell_t *cell) {
@@ -134,7 +169,7 @@ static int run_cell(const recon_scene_t *sc, int64_t threads, bool quiet, experi
 }
 
 int main(int argc, char **argv) {
-  bool full = false, quiet = false, configs[5] = {false, true, true, true, true};
+  bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
   int64_t volumes = -1, iterations = -1, photons = -1, grid = -1, threads = -1;
   double scale = -1.0;
   const char *out = "out/fig4";
@@ -145,6 +180,8 @@ int main(int argc, char **argv) {
       full = true;
     } else if (strcmp(a, "--quiet") == 0) {
       quiet = true;
+    } else if (strcmp(a, "--write-scenes") == 0) {
+      write_scenes = true;
     } else if (strcmp(a, "-o") == 0) {
       if (next == NULL) return usage("-o needs a directory");
       out = argv[++i];
@@ -212,6 +249,10 @@ int main(int argc, char **argv) {
         return 1;
       }
       if (outdir_prepare("hetinv-fig4", sc.output) != 0) return 1;
+      if (write_scenes) {
+        if (write_cell_scene(&sc) != 0) return 1;
+        continue;
+      }
       char key[1024];
       experiment_cell_key(&sc, key, sizeof key);
       experiment_cell_t cell;
@@ -234,6 +275,11 @@ int main(int argc, char **argv) {
         fflush(stdout);
       }
     }
+  }
+  if (write_scenes) {
+    int status = outdir_finish_stdout("hetinv-fig4") != 0;
+    outdir_close(&dir);
+    return status;
   }
   char path[1200];
   snprintf(path, sizeof path, "%s/fig4_table.csv", out);

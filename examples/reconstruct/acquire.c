@@ -8,10 +8,6 @@
 
 #include "recon.h"
 
-/* Photons of the simulated data come from their own stream, so the
- * optimizer never reuses the paths that made its data. */
-#define RECON_TRUTH_STREAM 40000
-
 void recon_set_weights(int weighting, const double *v, const double *se, double *w, size_t n) {
   double peak = 0.0;
   for (size_t i = 0; i < n; ++i) peak = fmax(peak, fabs(v[i]));

@@ -46,47 +46,77 @@ static void face_grid(const recon_scene_t *sc, int face, face_grid_t *g) {
   g->tilt = section ? (g->u == 1 ? g->v : g->u) : g->u;
 }
 
-static hetinv_result_t push_emitter(recon_imaging_t *im, hetinv_emitter_t *e) {
-  if (im->emitter_count == im->capacity_e) {
-    int32_t cap = im->capacity_e ? 2 * im->capacity_e : 64;
-    hetinv_emitter_t **grown = realloc(im->emitters, (size_t)cap * sizeof *grown);
-    if (grown == NULL) return HETINV_ERROR_OUT_OF_MEMORY;
-    im->emitters = grown;
-    im->capacity_e = cap;
+/* Grows *array of *capacity elements of `size` bytes to hold count + 1. */
+static bool grow(void **array, int32_t *capacity, int32_t count, size_t size) {
+  if (count < *capacity) return true;
+  int32_t cap = *capacity ? 2 * *capacity : 64;
+  void *grown = realloc(*array, (size_t)cap * size);
+  if (grown == NULL) return false;
+  *array = grown;
+  *capacity = cap;
+  return true;
+}
+
+/* Takes e (destroyed here on failure) with its description. */
+static hetinv_result_t push_emitter(recon_imaging_t *im, hetinv_emitter_t *e, const double p[3], const double d[3]) {
+  int32_t cap = im->capacity_e;
+  if (!grow((void **)&im->emitters, &cap, im->emitter_count, sizeof *im->emitters) ||
+      !grow((void **)&im->emitter_specs, &im->capacity_e, im->emitter_count, sizeof *im->emitter_specs)) {
+    hetinv_emitter_destroy(&e);
+    return HETINV_ERROR_OUT_OF_MEMORY;
   }
+  recon_emitter_spec_t *spec = &im->emitter_specs[im->emitter_count];
+  memcpy(spec->origin, p, sizeof spec->origin);
+  memcpy(spec->direction, d, sizeof spec->direction);
   im->emitters[im->emitter_count++] = e;
   return HETINV_SUCCESS;
 }
 
-static hetinv_result_t push_sensor(recon_imaging_t *im, hetinv_sensor_t *s) {
-  if (im->sensor_count == im->capacity_s) {
-    int32_t cap = im->capacity_s ? 2 * im->capacity_s : 64;
-    hetinv_sensor_t **grown = realloc(im->sensors, (size_t)cap * sizeof *grown);
-    if (grown == NULL) return HETINV_ERROR_OUT_OF_MEMORY;
-    im->sensors = grown;
-    im->capacity_s = cap;
+/* Takes s (destroyed here on failure) with its description. */
+static hetinv_result_t push_sensor(recon_imaging_t *im, hetinv_sensor_t *s, const recon_sensor_spec_t *spec) {
+  int32_t cap = im->capacity_s;
+  if (!grow((void **)&im->sensors, &cap, im->sensor_count, sizeof *im->sensors) ||
+      !grow((void **)&im->sensor_specs, &im->capacity_s, im->sensor_count, sizeof *im->sensor_specs)) {
+    hetinv_sensor_destroy(&s);
+    return HETINV_ERROR_OUT_OF_MEMORY;
   }
+  im->sensor_specs[im->sensor_count] = *spec;
   im->sensors[im->sensor_count++] = s;
   return HETINV_SUCCESS;
+}
+
+/* Adds the row (emitter e, sensor s) to the set and to its description. */
+static hetinv_result_t push_row(recon_imaging_t *im, int32_t e, int32_t s, bool bins) {
+  if (!grow((void **)&im->row_specs, &im->capacity_r, im->row_count, sizeof *im->row_specs)) {
+    return HETINV_ERROR_OUT_OF_MEMORY;
+  }
+  hetinv_result_t r = hetinv_measurements_add(im->set, im->emitters[e], im->sensors[s], bins ? im->bins : im->steady, NULL);
+  if (r == HETINV_SUCCESS) im->row_specs[im->row_count++] = (recon_row_spec_t){e, s, bins};
+  return r;
 }
 
 /* An orthographic sensor on g's face over pixels [first, first + n) along
  * the tilt axis at pixel `at` of the other in-face axis (n = 0: the whole face). */
 static hetinv_result_t make_sensor(const hetinv_medium_t *m, const face_grid_t *g, int32_t first,
-                                   int32_t n, int32_t at, hetinv_sensor_t **out) {
-  double dir[3] = {0, 0, 0}, origin[2], size[2] = {g->pixel, g->pixel};
-  dir[g->n_axis] = (g->face & 1) ? 1.0 : -1.0;
-  int32_t w = g->count[0], h = g->count[1];
-  origin[0] = g->origin[0];
-  origin[1] = g->origin[1];
+                                   int32_t n, int32_t at, recon_imaging_t *im, int32_t *index) {
+  recon_sensor_spec_t sp = {.face = g->face, .pixel = {g->pixel, g->pixel}};
+  sp.direction[g->n_axis] = (g->face & 1) ? 1.0 : -1.0;
+  sp.width = g->count[0];
+  sp.height = g->count[1];
+  sp.origin[0] = g->origin[0];
+  sp.origin[1] = g->origin[1];
   if (n > 0) {
     int line = g->tilt == g->u ? 0 : 1;
-    origin[line] += first * g->pixel;
-    origin[1 - line] += at * g->pixel;
-    w = line == 0 ? n : 1;
-    h = line == 0 ? 1 : n;
+    sp.origin[line] += first * g->pixel;
+    sp.origin[1 - line] += at * g->pixel;
+    sp.width = line == 0 ? n : 1;
+    sp.height = line == 0 ? 1 : n;
   }
-  return hetinv_sensor_create_orthographic(m, (hetinv_face_t)g->face, dir, origin, size, w, h, out);
+  hetinv_sensor_t *s = NULL;
+  hetinv_result_t r = hetinv_sensor_create_orthographic(m, (hetinv_face_t)g->face, sp.direction, sp.origin, sp.pixel,
+                                                        sp.width, sp.height, &s);
+  *index = im->sensor_count;
+  return r == HETINV_SUCCESS ? push_sensor(im, s, &sp) : r;
 }
 
 /* Every stride-th pixel, starting half a stride in, carries a source. */
@@ -149,19 +179,20 @@ hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t
   if (r == HETINV_SUCCESS && transient) {
     int32_t nb = (int32_t)ceil(sc->max_pathlength / sc->bin_width - 1e-9);
     double *centres = malloc((size_t)nb * sizeof *centres);
-    if (centres == NULL) return HETINV_ERROR_OUT_OF_MEMORY;
-    for (int32_t i = 0; i < nb; ++i) centres[i] = (i + 0.5) * sc->bin_width;
-    r = hetinv_pathlength_create_bins(ctx, HETINV_WINDOW_BOX, nb, centres, sc->bin_width, &im->bins);
+    for (int32_t i = 0; centres != NULL && i < nb; ++i) centres[i] = (i + 0.5) * sc->bin_width;
+    r = centres == NULL ? HETINV_ERROR_OUT_OF_MEMORY
+                        : hetinv_pathlength_create_bins(ctx, HETINV_WINDOW_BOX, nb, centres, sc->bin_width, &im->bins);
     free(centres);
+    im->bin_count = nb;
+    im->bin_width = sc->bin_width;
   }
   /* Steady-state cameras: one per camera face, the whole pixel grid. */
-  hetinv_sensor_t *cameras[6] = {NULL};
+  int32_t cameras[6] = {-1, -1, -1, -1, -1, -1}; /* sensor index per face */
   for (int f = 0; r == HETINV_SUCCESS && steady && f < 6; ++f) {
     if (!(sc->camera_faces & (1u << f))) continue;
     face_grid_t g;
     face_grid(sc, f, &g);
-    r = make_sensor(m, &g, 0, 0, 0, &cameras[f]);
-    if (r == HETINV_SUCCESS) r = push_sensor(im, cameras[f]);
+    r = make_sensor(m, &g, 0, 0, 0, im, &cameras[f]);
   }
   for (int f = 0; r == HETINV_SUCCESS && f < 6; ++f) {
     if (!(sc->source_faces & (1u << f))) continue;
@@ -187,7 +218,8 @@ hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t
           for (int k = 0; k < 3; ++k) d[k] = n_in[k] * cos(th) + t[k] * sin(th);
           hetinv_emitter_t *e = NULL;
           r = hetinv_emitter_create_ideal(m, p, d, &e);
-          if (r == HETINV_SUCCESS) r = push_emitter(im, e);
+          int32_t ei = im->emitter_count;
+          if (r == HETINV_SUCCESS) r = push_emitter(im, e, p, d);
           /* Pathlength rows: the source pixel (and its neighbours in (1), (4)). */
           if (r == HETINV_SUCCESS && transient && (sc->config == RECON_PATHLENGTH_ANGLES || normal)) {
             int32_t first = il, count = 1;
@@ -195,14 +227,13 @@ hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t
               first = il > 0 ? il - 1 : 0;
               count = (il + 1 < nl ? il + 1 : il) - first + 1;
             }
-            hetinv_sensor_t *probe = NULL;
-            r = make_sensor(m, &g, first, count, across, &probe);
-            if (r == HETINV_SUCCESS) r = push_sensor(im, probe);
-            if (r == HETINV_SUCCESS) r = hetinv_measurements_add(im->set, e, probe, im->bins, NULL);
+            int32_t probe = -1;
+            r = make_sensor(m, &g, first, count, across, im, &probe);
+            if (r == HETINV_SUCCESS) r = push_row(im, ei, probe, true);
             if (r == HETINV_SUCCESS) ++im->rows_pathlength;
           }
           for (int c = 0; r == HETINV_SUCCESS && steady && c < 6; ++c) {
-            if (cameras[c]) r = hetinv_measurements_add(im->set, e, cameras[c], im->steady, NULL);
+            if (cameras[c] >= 0) r = push_row(im, ei, cameras[c], false);
           }
         }
       }
@@ -219,6 +250,9 @@ void recon_imaging_release(recon_imaging_t *im) {
   for (int32_t i = 0; i < im->sensor_count; ++i) hetinv_sensor_destroy(&im->sensors[i]);
   free(im->emitters);
   free(im->sensors);
+  free(im->emitter_specs);
+  free(im->sensor_specs);
+  free(im->row_specs);
   hetinv_pathlength_destroy(&im->steady);
   hetinv_pathlength_destroy(&im->bins);
   memset(im, 0, sizeof *im);

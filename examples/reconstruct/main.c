@@ -4,7 +4,7 @@
  *   hetinv-reconstruct [scene.json] [-o DIR] [--resume] [--quiet]
  *                      [--threads N] [--iterations N] [--photons N]
  *                      [--bound-only | --no-bound] [--bound-photons N]
- *                      [--bound-replicates N]
+ *                      [--bound-replicates N] [--write-scene]
  *
  * --bound-only computes the Cramér–Rao bound of the configuration at the
  * truth (bound.c) and stops; otherwise the bound is written beside the
@@ -12,7 +12,12 @@
  *
  * A scene whose "acquisition" names a render scene and measured files
  * (docs/reconstruct-format.md) is reconstructed from those files alone
- * (measured.c): no simulation, no bound, the truth only if named.
+ * (measured.c): no simulation, the truth only if named.
+ *
+ * --write-scene writes a simulated scene (the built-in one, or a scene's
+ * medium/imaging preset) as the files a user edits and runs: the render
+ * scene of its acquisition, the truth, and the reconstruction from the
+ * rendered files (preset.c), then stops.
  *
  * Exit status: 0 success, 1 failure (message on stderr), 2 usage error. */
 #include <math.h>
@@ -33,6 +38,7 @@ static int usage(const char *what) {
           "usage: hetinv-reconstruct [scene.json] [-o DIR] [--resume] [--quiet]\n"
           "                          [--threads N] [--iterations N] [--photons N]\n"
           "                          [--bound-only | --no-bound] [--bound-photons N] [--bound-replicates N]\n"
+          "                          [--write-scene]\n"
           "Without a scene, runs the built-in reduced Fig. 4 scene.\n",
           what);
   return 2;
@@ -62,7 +68,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
   const char *scene_path = NULL, *out_dir = NULL;
   bool resume = false, quiet = false;
   int64_t threads = -1, iterations = -1, photons = -1;
-  bool bound_only = false, no_bound = false;
+  bool bound_only = false, no_bound = false, write_scene = false;
   int64_t bound_photons = -1, bound_replicates = 8;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -81,6 +87,8 @@ static int run(int argc, char **argv, outdir_t *dir) {
       if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 1, INT64_C(1) << 40, &photons) < 0) return 2;
     } else if (strcmp(a, "--bound-only") == 0) {
       bound_only = true;
+    } else if (strcmp(a, "--write-scene") == 0) {
+      write_scene = true;
     } else if (strcmp(a, "--no-bound") == 0) {
       no_bound = true;
     } else if (strcmp(a, "--bound-photons") == 0) {
@@ -107,6 +115,10 @@ static int run(int argc, char **argv, outdir_t *dir) {
     return 1;
   }
   const bool files = sc.render_scene[0] != '\0';
+  if (write_scene && (files || bound_only)) {
+    return usage(files ? "--write-scene: the scene already reads measured files (acquisition.render_scene)"
+                       : "--write-scene and --bound-only exclude each other");
+  }
   /* From files the bound takes the noise from the standard errors given,
    * and is evaluated at the truth if one is named, else at the recovery. */
   if (files && bound_only && !sc.has_truth) {
@@ -170,7 +182,19 @@ static int run(int argc, char **argv, outdir_t *dir) {
     fflush(stdout);
   }
   char path[1200];
-  if (bound_only || files) {
+  if (status == 0 && write_scene) {
+    if (root && recon_preset_write(ctx, &sc, truth, &im, sc.output, msg, sizeof msg) < 0) {
+      fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+      status = 1;
+    } else if (root) {
+      printf("wrote %s/{render.json, reconstruct.json, truth_*.vol}; to render and reconstruct from the files:\n"
+             "  hetinv-render %s/render.json -o %s/data\n  hetinv-reconstruct %s/reconstruct.json -o %s/rec\n",
+             sc.output, sc.output, sc.output, sc.output, sc.output);
+    }
+  }
+  if (write_scene) {
+    /* written (or failed) above: nothing to simulate or recover */
+  } else if (bound_only || files) {
     /* the bound needs the configuration and the truth only; files were read above */
   } else if (status == 0 && sc.measurements[0]) {
     if (recon_measurements_read(ctx, &im, sc.measurements, msg, sizeof msg) != HETINV_SUCCESS) {
@@ -189,18 +213,18 @@ static int run(int argc, char **argv, outdir_t *dir) {
   recon_bound_t bound;
   memset(&bound, 0, sizeof bound);
   const int64_t bphotons = bound_photons > 0 ? bound_photons : sc.photons;
-  if (status == 0 && truth != NULL && (bound_only || !no_bound)) {
+  if (status == 0 && !write_scene && truth != NULL && (bound_only || !no_bound)) {
     status = recon_bound_run("hetinv-reconstruct", ctx, &sc, truth, &im, bphotons, (int32_t)bound_replicates, root,
                              false, &bound);
   }
   if (status == 0 && root && bound_only && bound.done) printf("wrote %s/{bound.exr, bound_*.png}\n", sc.output);
   double seconds = 0.0;
-  if (status == 0 && !bound_only &&
+  if (status == 0 && !bound_only && !write_scene &&
       recon_solve(ctx, &sc, &im, resume, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
     fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
     status = 1;
   }
-  if (status == 0 && truth == NULL && !no_bound) {
+  if (status == 0 && truth == NULL && !no_bound && !write_scene) {
     status = recon_bound_run("hetinv-reconstruct", ctx, &sc, rec, &im, bphotons, (int32_t)bound_replicates, root,
                              true, &bound);
   } else if (status == 0 && root && no_std_errors && !quiet) {
@@ -215,7 +239,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
       printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv%s%s}\n", sc.output,
              sc.gain_mode != HETINV_GAIN_NONE ? ", gains.csv" : "", bound.done ? ", bound.exr, bound_*.png" : "");
     }
-  } else if (status == 0 && root && !bound_only) {
+  } else if (status == 0 && root && !bound_only && !write_scene) {
     recon_errors_t e;
     recon_errors(truth, rec, &e);
     recon_bound_attach(&bound, truth, rec, &e);

@@ -25,6 +25,16 @@ typedef enum recon_config {
 enum { RECON_TRUTH_MIXTURE, RECON_TRUTH_SMOKE, RECON_TRUTH_VOL };
 enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM };
 
+/* Photons of the simulated data come from their own stream, so the
+ * optimizer never reuses the paths that made its data. */
+#define RECON_TRUTH_STREAM 40000
+
+/* The JSON names of the weightings, optimizer methods and coordinates, in
+ * the order of their enums; NULL-terminated. */
+extern const char *const recon_weighting_names[];
+extern const char *const recon_method_names[];
+extern const char *const recon_coordinate_names[];
+
 #define RECON_MAX_LEVELS 8
 #define RECON_MAX_ANGLES 8
 /* Layer-wise stages: with the levels' stages within HETINV_MAX_STAGES. */
@@ -122,6 +132,24 @@ void recon_imaging_size(const recon_scene_t *scene, recon_imaging_size_t *size);
 
 struct scene; /* a render scene (render/scene.h), for the acquisition from files */
 
+/* What recon_imaging_build() made, as the render scene that makes the
+ * same (preset.c writes it): an ideal beam from `origin` along `direction`;
+ * an orthographic sensor on `face` looking along `direction`, pixels of
+ * `pixel` from `origin` in face coordinates; a row (emitter, sensor) in
+ * steady state or in the pathlength bins. */
+typedef struct recon_emitter_spec {
+  double origin[3], direction[3];
+} recon_emitter_spec_t;
+typedef struct recon_sensor_spec {
+  int face;
+  double direction[3], origin[2], pixel[2];
+  int32_t width, height;
+} recon_sensor_spec_t;
+typedef struct recon_row_spec {
+  int32_t emitter, sensor;
+  bool bins;
+} recon_row_spec_t;
+
 /* The sampling functions and measurement set of a configuration. */
 typedef struct recon_imaging {
   hetinv_measurements_t *set;
@@ -130,6 +158,14 @@ typedef struct recon_imaging {
   int32_t emitter_count, sensor_count, capacity_e, capacity_s;
   hetinv_pathlength_t *steady, *bins;
   int32_t rows_pathlength;      /* rows of configuration (1)/(3) come first */
+  /* The same as a description (simulated configurations only; parallel
+   * to emitters, sensors and the set's rows). */
+  recon_emitter_spec_t *emitter_specs;
+  recon_sensor_spec_t *sensor_specs;
+  recon_row_spec_t *row_specs;
+  int32_t row_count, capacity_r;
+  int32_t bin_count;
+  double bin_width;
   /* Acquisition from files: the render scene owning the sampling functions,
    * and its release (a pointer, so that the simulated path does not link
    * the render scene reader). */
@@ -168,6 +204,16 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
  * naming the file, the channel and the row. 0, or -1 after a message. */
 int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *im, char *msg,
                      size_t msg_size);
+
+/* Writes a simulated scene as the files every program reads (preset.c):
+ * <dir>/render.json, the render scene of its acquisition (im's emitters,
+ * sensors, pathlengths and rows; the truth as medium, photons, seed and
+ * stream of the simulated render), <dir>/truth_<param>.vol, and
+ * <dir>/reconstruct.json, the reconstruction from <dir>/data, the folder
+ * hetinv-render writes that scene's rows to, with the scene's estimator
+ * and optimizer. 0, or -1 with "<file>: <reason>" in msg. */
+int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *scene, const hetinv_medium_t *truth, const recon_imaging_t *im,
+                       const char *dir, char *msg, size_t msg_size);
 
 /* Loss weights 1/s² from values and standard errors: s = the standard
  * error (variance), max(|value|, 10⁻³·peak) (relative) or 1 (uniform). */

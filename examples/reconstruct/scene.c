@@ -11,6 +11,11 @@
 
 static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
 
+/* The JSON names of the enums, in their order (preset.c writes them). */
+const char *const recon_weighting_names[] = {"variance", "relative", "uniform", NULL};
+const char *const recon_method_names[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
+const char *const recon_coordinate_names[] = {"native", "reduced", NULL};
+
 void recon_scene_default(recon_scene_t *sc) {
   memset(sc, 0, sizeof *sc);
   snprintf(sc->name, sizeof sc->name, "reduced Fig. 4");
@@ -185,12 +190,11 @@ static int read_truth(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   for (int p = 0; got > 0 && p < 3; ++p) {
     const char *s = NULL;
     if (jr_string(jr, v, "truth.vol", PARAM_KEYS[p], JR_REQUIRED, &s) < 0) return -1;
-    if (files && resolve_path(jr->file, s, sc->truth_vol[p], sizeof sc->truth_vol[p]) < 0) {
+    /* Relative to the scene's folder, as every path of a scene. */
+    if (resolve_path(jr->file, s, sc->truth_vol[p], sizeof sc->truth_vol[p]) < 0) {
       char at[JR_PATH_MAX];
       jr_key(at, "truth.vol", PARAM_KEYS[p]);
       return jr_fail(jr, at, "the path is too long");
-    } else if (!files) {
-      snprintf(sc->truth_vol[p], sizeof sc->truth_vol[p], "%s", s);
     }
   }
   return 0;
@@ -261,10 +265,9 @@ static int read_files(jr_t *jr, const cJSON *o, recon_scene_t *sc) {
       read_path(jr, o, "acquisition", "std_errors", JR_OPTIONAL, sc->std_errors, sizeof sc->std_errors) < 0) {
     return -1;
   }
-  static const char *const weights[] = {"variance", "relative", "uniform", NULL};
   /* From files the default needs no standard-error files. */
   sc->weighting = RECON_WEIGHT_RELATIVE;
-  if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, weights, &sc->weighting) < 0) return -1;
+  if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, recon_weighting_names, &sc->weighting) < 0) return -1;
   /* Variances come from the standard-error files hetinv-render writes beside the values. */
   if (sc->weighting == RECON_WEIGHT_VARIANCE && sc->std_errors[0] == '\0') {
     snprintf(sc->std_errors, sizeof sc->std_errors, "%s", sc->measured);
@@ -302,12 +305,11 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   int64_t v = (int64_t)sc->noise_model.seed;
   if (jr_integer(jr, o, "acquisition", "seed", JR_OPTIONAL, 0, INT64_MAX, &v) < 0) return -1;
   sc->noise_model.seed = (uint64_t)v;
-  static const char *const weights[] = {"variance", "relative", "uniform", NULL};
-  if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, weights, &sc->weighting) < 0) return -1;
+  if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, recon_weighting_names, &sc->weighting) < 0) return -1;
   if (jr_integer(jr, o, "acquisition", "photons", JR_OPTIONAL, 1, (int64_t)1 << 40, &sc->truth_photons) < 0) return -1;
-  const char *s = NULL;
-  if (jr_string(jr, o, "acquisition", "measurements", JR_OPTIONAL, &s) < 0) return -1;
-  if (s) snprintf(sc->measurements, sizeof sc->measurements, "%s", s);
+  if (read_path(jr, o, "acquisition", "measurements", JR_OPTIONAL, sc->measurements, sizeof sc->measurements) < 0) {
+    return -1;
+  }
   return 0;
 }
 
@@ -319,10 +321,8 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
                                         "decay", "learning_rate", "average_window", "time_budget", "bounds",
                                         "init", "levels", "layerwise_layers", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
-  static const char *const methods[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
-  if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, methods, &sc->method) < 0) return -1;
-  static const char *const coordinates[] = {"native", "reduced", NULL};
-  if (jr_choice(jr, o, "optimizer", "coordinates", JR_OPTIONAL, coordinates, &sc->coordinates) < 0) return -1;
+  if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
+  if (jr_choice(jr, o, "optimizer", "coordinates", JR_OPTIONAL, recon_coordinate_names, &sc->coordinates) < 0) return -1;
   /* A stage's iteration count is an int32_t (hetinv_stage_t). */
   if (jr_integer(jr, o, "optimizer", "iterations", JR_OPTIONAL, 1, INT32_MAX, &sc->iterations) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "coarse_fraction", JR_OPTIONAL, &sc->coarse_fraction) < 0) return -1;
