@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Fails when a lib/ folder includes a folder that docs/architecture.md does
 not allow it to depend on, or when a program outside lib/ (examples/, bench/)
-reaches into the library's internal headers.
+reaches into the library's internal headers; and when a unit test is not
+named after the module it tests, tests/unit/<folder>_<module>.c with
+<folder> a lib/ folder.
 
 The allowed edges are the "depends on" column of the folder table in
 docs/architecture.md: one row per `lib/<folder>/`, its direct dependencies
@@ -62,9 +64,17 @@ def main(root):
             if target in folders:
                 errors.append(f"{src.relative_to(root)}: includes the library's internal {target}/; "
                               "programs use the public API (hetinv/...) only")
+    unit = root / "tests" / "unit"
+    tests = sorted(unit.glob("*.c")) if unit.is_dir() else []
+    for src in tests:
+        folder = src.stem.split("_", 1)[0]
+        if folder not in folders or "_" not in src.stem:
+            errors.append(f"{src.relative_to(root)}: a unit test is named <folder>_<module>.c after the module "
+                          f"it tests, <folder> one of: {', '.join(folders)}")
     for e in errors:
         print(e)
-    print(f"layering: {len(folders)} folders, {edges} cross-folder includes checked, {len(errors)} violations")
+    print(f"layering: {len(folders)} folders, {edges} cross-folder includes checked, {len(tests)} unit tests' "
+          f"names checked, {len(errors)} violations")
     return 1 if errors else 0
 
 
@@ -85,7 +95,19 @@ def self_test():
         if main(root) != 1:
             print("self-test: the planted edges low -> high and examples -> low were not caught")
             return 1
-    print("self-test: planted edges caught")
+        for name in ("low", "high"):
+            (root / "lib" / name / "a.c").write_text("", encoding="utf-8")
+        (root / "examples" / "p.c").write_text("", encoding="utf-8")
+        (root / "tests" / "unit").mkdir(parents=True)
+        (root / "tests" / "unit" / "low_a.c").write_text("", encoding="utf-8")
+        if main(root) != 0:
+            print("self-test: a clean tree was refused")
+            return 1
+        (root / "tests" / "unit" / "test_a.c").write_text("", encoding="utf-8")
+        if main(root) != 1:
+            print("self-test: the planted unit test name test_a.c was not caught")
+            return 1
+    print("self-test: planted edges and a misnamed unit test caught")
     return 0
 
 

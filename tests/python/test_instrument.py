@@ -1,8 +1,8 @@
 """What real instruments need, through the binding: the calibration gain of
 the loss (Estimator.gain_mode, gains()), pathlength bins seen through an
 instrument response (Pathlength.bins_irf, irf_offsets_from_times) and the
-saturation mask (Measurements.mask_saturated). The C tests (test_gain,
-test_irf, test_mask) check the numbers; these check the binding's calls."""
+saturation mask (Measurements.mask_saturated). The C tests (estimator_gain,
+sampling_irf, sampling_mask) check the numbers; these check the binding's calls."""
 import unittest
 
 import hetinv
