@@ -1,5 +1,5 @@
 /* The smooth dielectric boundary (lib/medium/fresnel.h), against the values of
- * /work/shared/reference/transport-cases.md (scottprahl/iadpython
+ * tests/validation/transport-cases.md (scottprahl/iadpython
  * tests/test_fresnel.py). Deterministic: tolerances are half a unit in the
  * last digit the reference gives (one unit where it is truncated). */
 #include <math.h>
