@@ -311,14 +311,21 @@ enum hetinv_gain_mode_id {
  * (not the measurements: the weights stay those of the measured values, and
  * the recovered volume is in the model's units) by the gain that fits best:
  * for the loss L(k) = Σ_n mask_n·w_n·(k·I_n − Ī_n)² over the values sharing
- * the gain,
- *     k* = max(0, Σ mask·w·I·Ī / Σ mask·w·I²),
- * in closed form at every call (variable projection); k* = 0 when no used
- * value renders any light (the denominator is 0). A negative fit (noise
- * only) is clamped to 0, the least-squares gain among physical ones.
+ * the gain, fitted to the expected render:
+ *     k* = max(0, Σ mask·w·I·Ī / Σ mask·w·(I² − s²)),
+ * in closed form at every call (variable projection), s the render's
+ * batch-means standard error: a rendered I² is E[I]² plus the render's
+ * variance, and I² − s² removes it (the U-statistic of the batch means,
+ * unbiased for E[I]² with batches of equal size; at least 2 batches). With
+ * Σ mask·w·I² instead, k* was low by about the renders' relative variance:
+ * −37 % at 100 photons per emitter in the files round trip, where this fit
+ * is +5 to +10 % (docs/results/gain.md). Where the corrected denominator is
+ * not positive (photons so few that the render is noise) Σ mask·w·I² is
+ * used; k* = 0 when no used value renders any light. A negative fit
+ * (noise only) is clamped to 0, the least-squares gain among physical ones.
  *
- * Gradient: k* minimises L(k, π), so (envelope theorem) the gradient of
- * L(k*(π), π) with respect to π is ∂L/∂π at fixed k = k*:
+ * Gradient: k* minimises the expected L(k, π), so (envelope theorem) the
+ * gradient of L(k*(π), π) with respect to π is ∂L/∂π at fixed k = k*:
  * Σ_n 2·mask·w·k*·(k*·I_n − Ī_n)·∂I_n/∂π, with no term through the
  * dependence of k* on π.
  *
@@ -329,9 +336,10 @@ enum hetinv_gain_mode_id {
  * k*·(k*·E[I] − Ī) by terms of the order of the renders' relative variance
  * (1/photons), as the loss itself (min over k of a noisy loss is biased
  * low by the same order). The bias vanishes as photons grow: on the
- * problem of the loss-gradient validation test it is +16 % of one entry at
- * 200 photons per call and +1 % at 3200 (docs/results/gain.md). Fitting k
- * on another stream would not remove it (E[k̂²] ≠ E[k̂]²): measured, it
+ * problem of the loss-gradient validation test (3 values) it is −15 % of
+ * one entry at 200 photons per call and −0.6 % at 3200 (+16 % and +1.1 %
+ * with the denominator Σ mask·w·I²; docs/results/gain.md). Fitting k on
+ * another stream would not remove it (E[k̂²] ≠ E[k̂]²): measured, it
  * halves the bias and multiplies the gradient's variance by 3.6.
  *
  * The gains are fitted on the set passed to each call: the optimizer's

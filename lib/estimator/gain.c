@@ -1,7 +1,15 @@
 /* The unknown calibration gain of hetinv_estimator_loss_gradient(): the
  * model k·I is fitted to the measured values in closed form at each call
  * (hetinv/estimator.h says why the model, not the data, is scaled, and what
- * the fit does to the gradient's bias). */
+ * the fit does to the gradient's bias).
+ *
+ * The denominator Σ w·E[I]² is estimated without bias: a rendered I² is
+ * E[I]² plus the render's variance, so Σ w·I² made the gain low by about
+ * the renders' relative variance (−37 % at 100 photons per emitter in the
+ * files round trip, docs/results/gain.md); I² − s², s the batch-means
+ * standard error of the same render, is the U-statistic Σ_{b≠c} m_b·m_c /
+ * (B(B − 1)) of the batch means m_b, unbiased for E[I]² when the batches
+ * are independent and of equal size (photons a multiple of batches). */
 #include "estimator/gain.h"
 
 #include <string.h>
@@ -59,27 +67,33 @@ HETINV_API hetinv_result_t hetinv_estimator_get_gains(const hetinv_estimator_t *
   return HETINV_SUCCESS;
 }
 
-/* The least-squares gain of the sums Σ m·w·I·Ī (num) and Σ m·w·I² (den). */
-static double fitted(double num, double den) {
+/* The least-squares gain Σ m·w·I·Ī / Σ m·w·E[I]² from the sums num, den
+ * (E[I]² estimated without bias) and den_plain (Σ m·w·I², the fallback when
+ * den is not positive: so few photons that the estimate is noise). */
+static double fitted(double num, double den, double den_plain) {
+  if (!(den > 0.0)) den = den_plain;
   if (!(den > 0.0)) return 0.0; /* no used value renders light: nothing to scale */
   double k = num / den;
   return k > 0.0 ? k : 0.0;
 }
 
-/* The sums of value range [lo, hi) into num and den. */
-static void add_sums(const hetinv_measurements_t *set, const double *values, size_t lo, size_t hi,
-                     double *num, double *den) {
+/* The sums of value range [lo, hi): num, den (I² less its variance, the
+ * squared standard error, when given) and den_plain. */
+static void add_sums(const hetinv_measurements_t *set, const double *values, const double *std_errors, size_t lo,
+                     size_t hi, double sums[3]) {
   for (size_t i = lo; i < hi; ++i) {
     if (!set->mask[i]) continue;
-    double wi = set->weights[i] * values[i];
-    *num += wi * set->values[i];
-    *den += wi * values[i];
+    double w = set->weights[i], sq = values[i] * values[i];
+    double var = std_errors ? std_errors[i] * std_errors[i] : 0.0;
+    sums[0] += w * values[i] * set->values[i];
+    sums[1] += w * (sq - var);
+    sums[2] += w * sq;
   }
 }
 
 hetinv_result_t hv_gain_fit(hetinv_estimator_t *est, const hv_pass_t *pass,
-                            const hetinv_measurements_t *set, const double *values, double *cot,
-                            double *loss) {
+                            const hetinv_measurements_t *set, const double *values,
+                            const double *std_errors, double *cot, double *loss) {
   const hv_plans_t *plans = &pass->plans;
   bool global = est->gain_mode == HETINV_GAIN_GLOBAL;
   size_t count = global ? 1 : (size_t)plans->count;
@@ -95,16 +109,16 @@ hetinv_result_t hv_gain_fit(hetinv_estimator_t *est, const hv_pass_t *pass,
   /* Each value belongs to the rows of exactly one plan (emitter); sums run
    * over plans in order, then their ranges, so they do not depend on the
    * thread or rank count. */
-  double num = 0.0, den = 0.0;
+  double sums[3] = {0.0, 0.0, 0.0};
   for (int32_t e = 0; e < plans->count; ++e) {
     const hv_plan_t *plan = &plans->plan[e];
-    if (!global) num = den = 0.0;
+    if (!global) sums[0] = sums[1] = sums[2] = 0.0;
     for (int32_t i = 0; i < plan->range_count; ++i) {
-      add_sums(set, values, plan->range_lo[i], plan->range_hi[i], &num, &den);
+      add_sums(set, values, std_errors, plan->range_lo[i], plan->range_hi[i], sums);
     }
-    if (!global) est->gains[e] = fitted(num, den);
+    if (!global) est->gains[e] = fitted(sums[0], sums[1], sums[2]);
   }
-  if (global) est->gains[0] = fitted(num, den);
+  if (global) est->gains[0] = fitted(sums[0], sums[1], sums[2]);
   /* k* minimises L(k, π), so by the envelope theorem the gradient of
    * L(k*(π), π) is ∂L/∂π at k = k*: the cotangent 2·m·w·k·(k·I − Ī), with
    * no term through the dependence of k* on π. */

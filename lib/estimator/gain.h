@@ -5,10 +5,12 @@
 #include "estimator/pass.h"
 
 /* With est->gain_mode != HETINV_GAIN_NONE: fits the gains to the rendered
- * values (one per plan of `pass`, or one), stores them in est, and fills
- * cot[n] = 2·mask·w·k·(k·I_n − Ī_n) and *loss = Σ mask·w·(k·I_n − Ī_n)². */
+ * values (one per plan of `pass`, or one) and their standard errors (the
+ * denominator's I² less their square; NULL: I² as it is), stores them in
+ * est, and fills cot[n] = 2·mask·w·k·(k·I_n − Ī_n) and
+ * *loss = Σ mask·w·(k·I_n − Ī_n)². */
 hetinv_result_t hv_gain_fit(hetinv_estimator_t *est, const hv_pass_t *pass,
-                            const hetinv_measurements_t *set, const double *values, double *cot,
-                            double *loss);
+                            const hetinv_measurements_t *set, const double *values,
+                            const double *std_errors, double *cot, double *loss);
 
 #endif

@@ -317,15 +317,18 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
   size_t n = set->value_count;
   double *values = r == HETINV_SUCCESS ? hv_calloc(ctx, n, sizeof(double)) : NULL;
   double *cot = r == HETINV_SUCCESS ? hv_calloc(ctx, n, sizeof(double)) : NULL;
-  if (r == HETINV_SUCCESS && (values == NULL || cot == NULL)) {
+  /* With a gain: the render's standard errors, for the gain's denominator. */
+  const bool gain = r == HETINV_SUCCESS && estimator->gain_mode != HETINV_GAIN_NONE;
+  double *se = gain ? hv_calloc(ctx, n, sizeof(double)) : NULL;
+  if (r == HETINV_SUCCESS && (values == NULL || cot == NULL || (gain && se == NULL))) {
     r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu values", n);
   }
   if (r == HETINV_SUCCESS) {
     /* I from stream s; the gradient from the independent stream s + 1. */
-    r = hv_forward_run(estimator, &pass, values, NULL, NULL, n);
+    r = hv_forward_run(estimator, &pass, values, se, NULL, n);
     double sum = 0.0;
-    if (r == HETINV_SUCCESS && estimator->gain_mode != HETINV_GAIN_NONE) {
-      r = hv_gain_fit(estimator, &pass, set, values, cot, &sum);
+    if (r == HETINV_SUCCESS && gain) {
+      r = hv_gain_fit(estimator, &pass, set, values, se, cot, &sum);
     } else if (r == HETINV_SUCCESS) {
       for (size_t i = 0; i < n; ++i) {
         double res = set->mask[i] ? set->weights[i] * (values[i] - set->values[i]) : 0.0;
@@ -342,6 +345,7 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
   }
   hv_free(ctx, values);
   hv_free(ctx, cot);
+  hv_free(ctx, se);
   hv_pass_end(&pass);
   if (r != HETINV_SUCCESS) estimator->gain_count = 0;
   return r;
