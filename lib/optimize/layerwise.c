@@ -16,22 +16,13 @@
 #include "sampling/pathlength_internal.h"
 #include "sampling/sensor_internal.h"
 
-/* A frontlit row: an ideal beam and an orthographic sensor on the face it
- * enters, resolved in pathlength. */
+/* A frontlit row: an ideal beam and an imaging sensor (one direction per
+ * pixel, as the orthographic one) on the face it enters, resolved in
+ * pathlength. */
 static bool frontlit(const hv_row_t *row) {
   const hetinv_emitter_t *e = row->emitter;
   const hetinv_sensor_t *s = row->sensor;
-  return e->kind == HV_EMITTER_IDEAL && s->kind == HV_SENSOR_ORTHOGRAPHIC &&
-         e->faces[0] == s->face && !row->pathlength->steady;
-}
-
-/* Centre of pixel p of an orthographic sensor, on its face. */
-static void pixel_centre(const hetinv_sensor_t *s, int32_t p, double c[3]) {
-  int au, av, n = hv_face_axis(s->face);
-  hv_face_uv_axes(s->face, &au, &av);
-  c[au] = s->origin[0] + ((p % s->width) + 0.5) * s->pixel_size[0];
-  c[av] = s->origin[1] + ((p / s->width) + 0.5) * s->pixel_size[1];
-  c[n] = hv_face_plane(&s->geo, s->face);
+  return e->kind == HV_EMITTER_IDEAL && s->images && e->faces[0] == s->face && !row->pathlength->steady;
 }
 
 /* Layer of every voxel: depth of its centre below the nearest lit face, in h. */
@@ -70,7 +61,7 @@ static void stage_value_mask(const hetinv_measurements_t *set, double h, int32_t
     const hetinv_pathlength_t *pl = row->pathlength;
     for (int32_t p = 0; p < row->pixels; ++p) {
       double c[3], d2 = 0.0;
-      pixel_centre(row->sensor, p, c);
+      hv_sensor_pixel_centre(row->sensor, p, c);
       for (int a = 0; a < 3; ++a) d2 += (c[a] - src[a]) * (c[a] - src[a]);
       /* Mirror image of the sensor below the layer: the shortest path in. */
       double shortest = sqrt(d2 + depth2 * depth2);

@@ -4,14 +4,15 @@
 
 #include "core/alloc.h"
 #include "core/error.h"
-#include "medium/fresnel.h"
 #include "sampling/measurements_internal.h"
+#include "transport/sensor_kind.h"
 
 void hv_plans_release(hv_plans_t *plans) {
   for (int32_t i = 0; i < plans->count && plans->plan; ++i) {
     hv_plan_t *p = &plans->plan[i];
-    hv_free(plans->ctx, p->ortho);
-    hv_free(plans->ctx, p->hemi);
+    hv_free(plans->ctx, p->targets);
+    hv_free(plans->ctx, p->at_vertex);
+    hv_free(plans->ctx, p->at_exit);
     hv_free(plans->ctx, p->rows);
     hv_free(plans->ctx, p->range_lo);
     hv_free(plans->ctx, p->range_hi);
@@ -25,11 +26,12 @@ void hv_plans_release(hv_plans_t *plans) {
 static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *ctx,
                       const int32_t *row_ids, int32_t n, hv_plan_t *p) {
   p->rows = hv_calloc(ctx, (size_t)n, sizeof *p->rows);
-  p->ortho = hv_calloc(ctx, (size_t)n, sizeof *p->ortho);
-  p->hemi = hv_calloc(ctx, (size_t)n, sizeof *p->hemi);
+  p->targets = hv_calloc(ctx, (size_t)n, sizeof *p->targets);
+  p->at_vertex = hv_calloc(ctx, (size_t)n, sizeof *p->at_vertex);
+  p->at_exit = hv_calloc(ctx, (size_t)n, sizeof *p->at_exit);
   p->range_lo = hv_calloc(ctx, (size_t)n, sizeof(size_t));
   p->range_hi = hv_calloc(ctx, (size_t)n, sizeof(size_t));
-  if (!p->rows || !p->ortho || !p->hemi || !p->range_lo || !p->range_hi) return false;
+  if (!p->rows || !p->targets || !p->at_vertex || !p->at_exit || !p->range_lo || !p->range_hi) return false;
   /* Group rows by sensor, keeping the order of first use. */
   int32_t placed = 0;
   for (int32_t i = 0; i < n; ++i) {
@@ -37,9 +39,9 @@ static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *
     bool seen = false;
     for (int32_t j = 0; j < i && !seen; ++j) seen = set->rows[row_ids[j]].sensor == s;
     if (seen) continue;
-    bool ortho = s->kind == HV_SENSOR_ORTHOGRAPHIC;
-    hv_sensor_target_t *t = ortho ? &p->ortho[p->ortho_count++] : &p->hemi[p->hemi_count++];
+    hv_sensor_target_t *t = &p->targets[p->target_count++];
     t->sensor = s;
+    t->kind = s->kind;
     t->first_row = placed;
     for (int32_t j = i; j < n; ++j) {
       const hv_row_t *r = &set->rows[row_ids[j]];
@@ -47,10 +49,9 @@ static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *
       p->rows[placed++] = (hv_row_target_t){r->offset, r->pixels, r->pathlength};
       t->row_count++;
     }
-    if (ortho) {
-      double eta = s->geo.eta_out / s->geo.eta, cos_t;
-      for (int a = 0; a < 3; ++a) t->reflectance[a] = hv_fresnel_dielectric(fabs(s->dir_in[a]), eta, &cos_t);
-    }
+    if (t->kind->prepare) t->kind->prepare(t);
+    if (t->kind->at_vertex) p->at_vertex[p->vertex_count++] = t;
+    if (t->kind->at_exit) p->at_exit[p->exit_count++] = t;
   }
   for (int32_t i = 0; i < n; ++i) {
     const hv_row_t *r = &set->rows[row_ids[i]];

@@ -17,17 +17,23 @@ typedef struct hv_row_target {
   const hetinv_pathlength_t *pathlength;
 } hv_row_target_t;
 
+struct hv_sensor_kind;
+
 typedef struct hv_sensor_target {
   const hetinv_sensor_t *sensor;
+  const struct hv_sensor_kind *kind; /* the sensor's (transport/sensor_kind.h) */
   int32_t first_row, row_count; /* into hv_plan_t::rows */
-  double reflectance[3]; /* orthographic: Fresnel R of dir_in against each axis' faces */
+  double cache[4]; /* the kind's per-target data (its prepare hook) */
 } hv_sensor_target_t;
 
 typedef struct hv_plan {
   const hetinv_emitter_t *emitter;
   uint32_t key;                        /* the emitter's random-stream key */
-  int32_t ortho_count, hemi_count;
-  hv_sensor_target_t *ortho, *hemi;
+  /* Its sensors in order of first use, and those whose kind scores at a
+   * scattering vertex / at a boundary exit, in the same order. */
+  int32_t target_count, vertex_count, exit_count;
+  hv_sensor_target_t *targets;
+  const hv_sensor_target_t **at_vertex, **at_exit;
   hv_row_target_t *rows;
   int32_t range_count;                 /* the value ranges its rows cover */
   size_t *range_lo, *range_hi;

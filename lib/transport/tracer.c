@@ -7,18 +7,7 @@
 #include "medium/fresnel.h"
 #include "medium/phase.h"
 #include "sampling/emitter_internal.h"
-#include "sampling/pathlength_internal.h"
-#include "sampling/sensor_internal.h"
-
-/* A specular chain of a connection stops when its remaining throughput
- * falls below this fraction of its start: the truncation is far below any
- * Monte Carlo error bar. Every hit on a face of the sensor's axis loses at
- * least 1 - R > 0 (no valid sensor direction is totally reflected there),
- * so chains end; total internal reflections at side faces cost nothing and
- * may be many in a narrow box. The bounce limit only guards against a
- * pathological R ≈ 1 and is far beyond any real chain. */
-#define HV_CHAIN_CUTOFF 1e-7
-#define HV_CHAIN_MAX_BOUNCES 1000000
+#include "transport/sensor_kind.h"
 
 /* -length·w to σa and σs of every voxel the straight segment crosses;
  * returns the voxel where it ends. */
@@ -70,100 +59,6 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
   }
 }
 
-/* Scores contribution `value` at pathlength tau into pixel `pixel` of every
- * row of target t: added to dst (forward), or, in gradient mode, weighed by
- * the cotangent and added to the splat total of `log`. */
-static void score(const hv_plan_t *plan, const hv_sensor_target_t *t, hv_tally_t *tally,
-                  double *dst, hv_path_log_t *log, int32_t pixel, double tau, double value) {
-  value *= plan->emitter->power;
-  hv_grad_tally_t *gt = tally->grad;
-  for (int32_t i = 0; i < t->row_count; ++i) {
-    const hv_row_target_t *row = &plan->rows[t->first_row + i];
-    if (gt && gt->jvp.tangents > 0) {
-      size_t T = (size_t)gt->jvp.tangents;
-      hv_jvp_splat(&gt->jvp, &gt->path, log == &gt->chain ? log : NULL, row->pathlength, tau, value,
-                   dst + ((size_t)row->offset + (size_t)pixel) * T, (size_t)row->pixels * T);
-    } else if (gt) {
-      log->scored = true;
-      log->cum += value * hv_pathlength_dot(row->pathlength, tau,
-                                            tally->grad->cotangent + row->offset + pixel, row->pixels);
-    } else {
-      hv_pathlength_splat(row->pathlength, tau, value, dst + row->offset + pixel, row->pixels);
-    }
-  }
-}
-
-/* Next-event connection from scattering vertex r (direction of arrival
- * d_in, weight w after the albedo, the vertex's phase function, pathlength
- * tau so far) to the orthographic sensor of target t. The light leaves along the sensor's
- * interior direction ω_i, possibly after specular reflections at other
- * faces (or at the sensor's face itself): each chain starts along a sign
- * flip of ω_i and ends when it reaches the sensor face travelling along
- * ω_i; every chain is followed until its throughput is negligible. */
-static void connect_sensor(const hv_tracer_t *tr, const hv_plan_t *plan,
-                           const hv_sensor_target_t *t, const hv_ray_t *vertex,
-                           const double d_in[3], double w, hv_phase_t phase, double tau,
-                           hv_tally_t *tally) {
-  const hetinv_sensor_t *s = t->sensor;
-  const hv_grid_t *grid = tr->grid;
-  hv_grad_tally_t *gt = tally->grad;
-  hv_path_log_t *chain = gt ? &gt->chain : NULL;
-  bool matched = grid->eta == grid->eta_out; /* no reflections: the direct chain only */
-  for (int flips = 0; flips < 8; ++flips) {
-    if (matched && flips != 0) break;
-    double w0[3];
-    bool redundant = false;
-    for (int a = 0; a < 3; ++a) {
-      bool flip = (flips >> a) & 1;
-      if (flip && s->dir_in[a] == 0.0) redundant = true; /* same direction as another pattern */
-      w0[a] = flip ? -s->dir_in[a] : s->dir_in[a];
-    }
-    if (redundant) continue;
-    double cos_theta = d_in[0] * w0[0] + d_in[1] * w0[1] + d_in[2] * w0[2];
-    double start = w * hv_phase_eval(phase, cos_theta);
-    if (!(start > 0.0)) continue;
-    if (chain) hv_path_log_reset(chain);
-    if (gt && gt->jvp.tangents > 0) {
-      hv_jvp_chain_begin(&gt->jvp, hv_vertex_voxel(grid, vertex), hv_phase_dlog_dg(phase, cos_theta));
-    }
-    hv_ray_t r = *vertex;
-    memcpy(r.d, w0, sizeof r.d);
-    hv_ray_locate(grid, &r);
-    double throughput = start, length = 0.0;
-    int state = flips;
-    for (int bounce = 0; bounce <= HV_CHAIN_MAX_BOUNCES; ++bounce) {
-      double dist;
-      hetinv_face_t face;
-      double depth = hv_ray_to_boundary(grid, &r, &dist, &face, chain);
-      throughput *= exp(-depth);
-      length += dist;
-      int a = hv_face_axis(face);
-      if (state == 0 && face == s->face) {
-        int32_t pixel = hv_sensor_pixel_at(s, r.p);
-        if (pixel >= 0) {
-          score(plan, t, tally, tally->values, chain, pixel, tau + length,
-                throughput * s->connection_scale);
-        }
-      }
-      /* What the face reflects travels on, flipped along its axis. */
-      throughput *= t->reflectance[a];
-      if (throughput < HV_CHAIN_CUTOFF * start) break;
-      r.d[a] = -r.d[a];
-      state ^= 1 << a;
-      hv_ray_locate(grid, &r);
-    }
-    if (chain && chain->cum != 0.0) {
-      /* The chain's own segments and the vertex's phase toward w0 score only
-       * this chain's splats; its total joins the path's splats. */
-      hv_grad_apply_log(gt, grid, chain);
-      hv_grad_add(gt, HETINV_PARAM_G, hv_vertex_voxel(grid, vertex),
-                  hv_phase_dlog_dg(phase, cos_theta) * chain->cum);
-      gt->path.cum += chain->cum;
-      gt->path.scored = true;
-    }
-  }
-}
-
 /* A photon that reaches the boundary from inside: returns 1 if it leaves
  * (and scores it), 0 if it is reflected back (r->d updated). */
 static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng,
@@ -183,28 +78,10 @@ static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t
   bool counted = scatterings >= tr->min_scattering &&
                  (tr->max_scattering == 0 || scatterings <= tr->max_scattering);
   if (!counted) return 1;
-  hv_path_log_t *log = tally->grad ? &tally->grad->path : NULL;
-  for (int32_t i = 0; i < plan->hemi_count; ++i) {
-    const hv_sensor_target_t *t = &plan->hemi[i];
-    if (t->sensor->face != face || hv_sensor_pixel_at(t->sensor, r->p) < 0) continue;
-    score(plan, t, tally, tally->values, log, 0, tau, w);
-    if (scatterings == 0 && tally->ballistic) score(plan, t, tally, tally->ballistic, log, 0, tau, w);
-  }
-  if (scatterings == 0 && tally->ballistic && plan->ortho_count > 0) {
-    /* Unscattered light is a Dirac in direction: it reaches an orthographic
-     * sensor only if it leaves exactly along the sensor's direction. It is
-     * reported apart from the values, and has no gradient. */
-    double n[3], out[3];
-    hv_face_normal(face, n);
-    hv_refract_cos(r->d, n, eta, cos_t, out);
-    for (int32_t i = 0; i < plan->ortho_count; ++i) {
-      const hv_sensor_target_t *t = &plan->ortho[i];
-      const double *so = t->sensor->dir_out;
-      double c = out[0] * so[0] + out[1] * so[1] + out[2] * so[2];
-      if (t->sensor->face != face || c < 1.0 - 1e-12) continue;
-      int32_t pixel = hv_sensor_pixel_at(t->sensor, r->p);
-      if (pixel >= 0) score(plan, t, tally, tally->ballistic, log, pixel, tau, w * t->sensor->ballistic_scale);
-    }
+  const hv_exit_t leaving = {r, face, cos_t, eta, w, tau, scatterings};
+  for (int32_t i = 0; i < plan->exit_count; ++i) {
+    const hv_sensor_target_t *t = plan->at_exit[i];
+    t->kind->at_exit(tr, plan, t, &leaving, tally);
   }
   return 1;
 }
@@ -268,8 +145,9 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
     }
     hv_phase_t phase = {HV_PHASE_HG, vx->g};
     if (scatterings >= tr->min_scattering) {
-      for (int32_t i = 0; i < plan->ortho_count; ++i) {
-        connect_sensor(tr, plan, &plan->ortho[i], &r, r.d, w, phase, tau, tally);
+      for (int32_t i = 0; i < plan->vertex_count; ++i) {
+        const hv_sensor_target_t *t = plan->at_vertex[i];
+        t->kind->at_vertex(tr, plan, t, &r, w, phase, tau, tally);
       }
     }
     double d_new[3];

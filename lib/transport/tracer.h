@@ -1,6 +1,6 @@
 /* The photon loop: light tracing from an emitter through the voxel grid,
- * scoring hemispherical detectors at exits and orthographic sensors by
- * next-event connections at every scattering vertex. */
+ * scoring every sensor through its kind's hooks (transport/sensor_kind.h)
+ * at scattering vertices and at boundary exits. */
 #ifndef HV_TRACER_H
 #define HV_TRACER_H
 

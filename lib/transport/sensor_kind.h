@@ -1,0 +1,46 @@
+/* A sensor kind, as the photon loop sees it: its two scoring hooks, one at
+ * a scattering vertex and one at a boundary exit, and what it precomputes
+ * per (emitter, sensor) when a render is planned. Each kind defines one
+ * hv_sensor_kind_t in its file of lib/sensors/ and sets it on the sensors
+ * it creates (hv_sensor_new); transport never names a kind. Adding a kind
+ * is that one file, its create function's prototype in hetinv/sampling.h
+ * and its line in lib/CMakeLists.txt. */
+#ifndef HV_SENSOR_KIND_H
+#define HV_SENSOR_KIND_H
+
+#include <stdint.h>
+
+#include "medium/phase.h"
+#include "transport/tracer.h"
+
+/* A photon leaving the medium: where it crosses the face (ray->p, with
+ * its direction inside ray->d), the cosine of its refracted direction with
+ * the face normal, η_out/η, its weight and pathlength, and how often it
+ * scattered. */
+typedef struct hv_exit {
+  const hv_ray_t *ray;
+  hetinv_face_t face;
+  double cos_t, eta, w, tau;
+  int32_t scatterings;
+} hv_exit_t;
+
+typedef struct hv_sensor_kind hv_sensor_kind_t;
+
+struct hv_sensor_kind {
+  const char *name;
+  /* When a render is planned: fills t->cache (the kind's data per emitter
+   * and sensor). NULL: nothing to precompute. */
+  void (*prepare)(hv_sensor_target_t *t);
+  /* At a scattering vertex (ray: position and direction of arrival, w
+   * the weight after the albedo, phase the vertex's phase function, tau
+   * the pathlength so far): scores the light the vertex sends to the
+   * sensor (next-event estimation). NULL: the kind scores no vertex. */
+  void (*at_vertex)(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sensor_target_t *t,
+                    const hv_ray_t *vertex, double w, hv_phase_t phase, double tau, hv_tally_t *tally);
+  /* At a boundary exit of a path whose scattering count is scored. NULL:
+   * the kind scores no exit. */
+  void (*at_exit)(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sensor_target_t *t,
+                  const hv_exit_t *exit, hv_tally_t *tally);
+};
+
+#endif
