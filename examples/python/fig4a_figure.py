@@ -3,7 +3,7 @@
 the truth volume shown as frames.
 
     python3 fig4a_figure.py RESULT_DIR [--out fig4a.png] [--transient transient.png]
-                            [--eta 1.3] [--photons N]
+                            [--eta 1.3] [--photons N] [--title TEXT]
 
 RESULT_DIR is an output folder of hetinv-reconstruct (or hetinv-fig4):
 it reads truth_<param>.vol and recovered_<param>.vol there, and writes
@@ -48,7 +48,7 @@ def extent(header):
     return (header.box_min[0], header.box_max[0], header.box_min[2], header.box_max[2])
 
 
-def draw_maps(ctx, folder, out):
+def draw_maps(ctx, folder, out, title=None):
     fig, axes = plt.subplots(3, 3, figsize=(10.5, 9.0), constrained_layout=True)
     summary = []
     for row, (name, symbol, unit) in enumerate(PARAMS):
@@ -72,7 +72,7 @@ def draw_maps(ctx, folder, out):
         for ax in axes[row]:
             ax.set_xlabel("x [mm]")
             ax.set_ylabel("z [mm]")
-    fig.suptitle("Heterogeneous inverse scattering: %s" % os.path.basename(os.path.abspath(folder)))
+    fig.suptitle(title or "Heterogeneous inverse scattering: %s" % os.path.basename(os.path.abspath(folder)))
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return summary
@@ -130,10 +130,11 @@ def main():
     parser.add_argument("--transient", help="figure of the transient frames (default FOLDER/transient.png)")
     parser.add_argument("--eta", type=float, default=1.3, help="refractive index of the volume (default 1.3)")
     parser.add_argument("--photons", type=int, default=200000, help="photons of the transient render")
+    parser.add_argument("--title", help="title of the maps (default: the folder's name)")
     args = parser.parse_args()
     ctx = hetinv.Context(seed=2016, threads=0)
     out = args.out or os.path.join(args.folder, "fig4a.png")
-    for name, mean, worst in draw_maps(ctx, args.folder, out):
+    for name, mean, worst in draw_maps(ctx, args.folder, out, args.title):
         print("%-8s mean %.2f %%  max %.2f %%" % (name, 100 * mean, 100 * worst))
     print("wrote", out)
     transient = args.transient or os.path.join(args.folder, "transient.png")
