@@ -34,9 +34,11 @@ struct hv_sensor_kind {
   /* At a scattering vertex (ray: position and direction of arrival, w
    * the weight after the albedo, phase the vertex's phase function, tau
    * the pathlength so far): scores the light the vertex sends to the
-   * sensor (next-event estimation). NULL: the kind scores no vertex. */
+   * sensor (next-event estimation). rng is the photon's stream, for rare
+   * draws (hv_rng_uniform). NULL: the kind scores no vertex. */
   void (*at_vertex)(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sensor_target_t *t,
-                    const hv_ray_t *vertex, double w, hv_phase_t phase, double tau, hv_tally_t *tally);
+                    const hv_ray_t *vertex, double w, hv_phase_t phase, double tau, hv_rng_t *rng,
+                    hv_tally_t *tally);
   /* At a boundary exit of a path whose scattering count is scored. NULL:
    * the kind scores no exit. */
   void (*at_exit)(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sensor_target_t *t,

@@ -147,7 +147,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
     if (scatterings >= tr->min_scattering) {
       for (int32_t i = 0; i < plan->vertex_count; ++i) {
         const hv_sensor_target_t *t = plan->at_vertex[i];
-        t->kind->at_vertex(tr, plan, t, &r, w, phase, tau, tally);
+        t->kind->at_vertex(tr, plan, t, &r, w, phase, tau, rng, tally);
       }
     }
     double d_new[3];
