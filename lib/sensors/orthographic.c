@@ -27,9 +27,9 @@
  * those R is known before its first walk and is rouletted the same way.
  * The gradient needs no extra score: the survival probability's score and
  * the weight's cancel (E[1{u < q}/q · f] = f for any q). The old rule, a
- * hard stop at 1e-7 of the start, walked about ten legs per sensor and
- * vertex and made connections 60 % of the built-in scene's time
- * (docs/results/kernel.md). Every hit on a face of the sensor's axis loses
+ * hard stop at 1e-7 of the start, walked up to ten legs per sensor and
+ * vertex: connections were 88 % of the built-in scene's iteration time
+ * (docs/results/kernel.md, "Specular chains"). Every hit on a face of the sensor's axis loses
  * at least 1 - R > 0 (no valid sensor direction is totally reflected
  * there), so chains end; total internal reflections at side faces cost
  * nothing (R = 1 keeps the throughput) and may be many in a narrow box. The
@@ -117,6 +117,7 @@ static void at_vertex(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sen
       }
       /* What the face reflects travels on, flipped along its axis. */
       throughput *= reflectance[a];
+      if (!(throughput > 0.0)) break; /* index-matched faces reflect nothing: no draw */
       if (throughput < ROULETTE * start) {
         if (!(hv_rng_uniform(rng) * ROULETTE * start < throughput)) break;
         throughput = ROULETTE * start;
