@@ -97,17 +97,12 @@ int main(int argc, char **argv) {
   init.thread_count = (int32_t)threads;
   hetinv_context_t *ctx = NULL;
   if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) return fail(NULL, "context");
-  hetinv_medium_t *truth = NULL, *start = NULL;
+  hetinv_medium_t *truth = NULL;
   recon_imaging_t im;
   memset(&im, 0, sizeof im);
   if (recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) return fail(ctx, "truth");
   if (recon_imaging_build(ctx, truth, &sc, &im) != HETINV_SUCCESS) return fail(ctx, "imaging");
   if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) return fail(ctx, "simulation");
-  if (recon_medium_create(ctx, &sc, &start) != HETINV_SUCCESS ||
-      hetinv_medium_fill(start, sc.init[0], sc.init[1], sc.init[2]) != HETINV_SUCCESS ||
-      hetinv_medium_commit(start) != HETINV_SUCCESS) {
-    return fail(ctx, "initial medium");
-  }
   /* The parts are timed on every emitter and scaled to a minibatch's
    * share: the optimizer's minibatches are random, and emitters differ in
    * cost (where their light goes, how often it scatters). */
@@ -117,7 +112,7 @@ int main(int argc, char **argv) {
   size_t n = hetinv_measurements_value_count(all);
   double *values = calloc(n, sizeof *values), *cot = calloc(n, sizeof *cot);
   hetinv_param_map_t *map = NULL;
-  if (hetinv_param_map_create_identity(start, HETINV_FREE_ALL, &map) != HETINV_SUCCESS) return fail(ctx, "map");
+  if (hetinv_param_map_create_identity(truth, HETINV_FREE_ALL, &map) != HETINV_SUCCESS) return fail(ctx, "map");
   size_t k = hetinv_param_map_size(map);
   double *grad = calloc(k, sizeof *grad);
   if (!values || !cot || !grad) return fail(NULL, "out of memory");
@@ -175,7 +170,6 @@ int main(int argc, char **argv) {
   free(grad);
   hetinv_estimator_destroy(&est);
   hetinv_param_map_destroy(&map);
-  hetinv_medium_destroy(&start);
   hetinv_medium_destroy(&truth);
   recon_imaging_release(&im);
   hetinv_context_destroy(&ctx);

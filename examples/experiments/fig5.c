@@ -17,9 +17,9 @@
  * of the three lit faces): 80 s on 2 cores, mean/max relative error
  * σa 15.4/52.5 %, σs 6.6/23.8 %, g 6.7/27.9 % (all 9.6/52.5 %). --full: a
  * 16 × 16 × 16 grid with 192 sources (every 2nd pixel), 4000 photons:
- * 4 min 31 s, but only 29 % mean error — 12 288 unknowns from 192 sources
- * are too few; the paper's run (many more sources) reports 9.31 % mean
- * and 19.73 % max over all parameters.
+ * 571 s on one thread, but 31 % mean error (docs/results/fig5.md) — 12 288
+ * unknowns from 192 sources are probably too few; the paper's run (many
+ * more sources) reports 9.31 % mean and 19.73 % max over all parameters.
  *
  * Outputs in DIR (default out/fig5): those of hetinv-reconstruct
  * (recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv,
@@ -49,9 +49,8 @@ static void print_usage(FILE *f) {
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
           "novel view and light.\n"
-          "  --full          %d^3 grid, 48 sources (slow: an estimated 30-90 minutes on\n"
-          "                  2 cores, not measured);\n"
-          "                  default: reduced %d^3 grid, 27 sources (about 6 minutes measured under load)\n"
+          "  --full          %d^3 grid, 192 sources (about 10 minutes on one thread);\n"
+          "                  default: reduced %d^3 grid, 108 sources (a few minutes)\n"
           "  --grid N        an N^3 grid (N >= 2; for tests and experiments)\n"
           "  -o DIR          output directory (default out/fig5)\n"
           "  --iterations N  iterations of the finest stage\n"
@@ -217,6 +216,60 @@ static hetinv_result_t novel_view_render(hetinv_context_t *ctx, const recon_scen
   return r;
 }
 
+/* Simulates the acquisition, recovers the volume, writes and prints the
+ * errors and the novel view; 0 or 1. */
+static int recover(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_medium_t *truth,
+                   recon_imaging_t *im, bool quiet, double t0) {
+  int status = 0;
+  char path[1200], msg[1024];
+  hetinv_medium_t *rec = NULL;
+  if (recon_simulate(ctx, sc, truth, im) != HETINV_SUCCESS) {
+    status = recon_fail(PROG, ctx, "simulated acquisition");
+  } else {
+    snprintf(path, sizeof path, "%s/measurements.exr", sc->output);
+    if (recon_measurements_write(ctx, im, path) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, path);
+    if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
+  }
+  double seconds = 0.0;
+  if (status == 0 && recon_solve(ctx, sc, im, false, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
+    fprintf(stderr, PROG ": %s\n", msg);
+    status = 1;
+  }
+  recon_errors_t e;
+  if (status == 0) {
+    recon_errors(truth, rec, &e);
+    if (recon_write_outputs(ctx, sc, truth, rec, &e, msg, sizeof msg) != HETINV_SUCCESS) {
+      fprintf(stderr, PROG ": %s\n", msg);
+      status = 1;
+    }
+  }
+  double rel_rms = 0.0, tv = recon_now();
+  int64_t view_photons = 0;
+  if (status == 0 && novel_view_render(ctx, sc, truth, rec, &rel_rms, &view_photons) != HETINV_SUCCESS) {
+    status = recon_fail(PROG, ctx, "novel view");
+  }
+  if (status == 0) {
+    double all_mean = 0.0, all_max = 0.0;
+    printf("\nrelative error of the recovery (%zu voxels):\n", hetinv_medium_voxel_count(truth));
+    printf("  parameter   mean      max\n");
+    for (int p = 0; p < 3; ++p) {
+      printf("  %-9s %6.2f %%  %6.2f %%\n", hetinv_param_name(p), 100.0 * e.mean[p], 100.0 * e.max[p]);
+      all_mean += e.mean[p] / 3.0;
+      all_max = fmax(all_max, e.max[p]);
+    }
+    printf("  %-9s %6.2f %%  %6.2f %%\n", "all", 100.0 * all_mean, 100.0 * all_max);
+    printf("  %-9s %6.2f %%  %6.2f %%   (paper, Fig. 5, all parameters, full resolution)\n", "paper", 9.31, 19.73);
+    printf("novel view (area light on y_min, camera on x_max, %d x %d, %lld photons): "
+           "relative RMS difference truth vs recovery %.2f %% (%.1f s)\n",
+           VIEW_PIXELS, VIEW_PIXELS, (long long)view_photons, 100.0 * rel_rms, recon_now() - tv);
+    printf("optimisation %.1f s, total %.1f s\n", seconds, recon_now() - t0);
+    printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv, novel_view.png, novel_view.exr}\n",
+           sc->output);
+  }
+  hetinv_medium_destroy(&rec);
+  return status;
+}
+
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scene = false;
   const char *out_dir = NULL;
@@ -280,7 +333,7 @@ int main(int argc, char **argv) {
   }
   double t0 = recon_now();
   int status = 0;
-  hetinv_medium_t *truth = NULL, *rec = NULL;
+  hetinv_medium_t *truth = NULL;
   recon_imaging_t im;
   memset(&im, 0, sizeof im);
   if (recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
@@ -296,7 +349,6 @@ int main(int argc, char **argv) {
            (long long)sc.iterations);
     fflush(stdout);
   }
-  char path[1200];
   if (status == 0 && write_scene) {
     if (recon_preset_write(ctx, &sc, truth, &im, sc.output, msg, sizeof msg) < 0) {
       fprintf(stderr, PROG ": %s\n", msg);
@@ -305,59 +357,10 @@ int main(int argc, char **argv) {
       printf("wrote %s/{render.json, reconstruct.json, truth_*.vol}\n", sc.output);
     }
   }
-  if (status == 0 && !write_scene) {
-    if (recon_simulate(ctx, &sc, truth, &im) != HETINV_SUCCESS) {
-      status = recon_fail(PROG, ctx, "simulated acquisition");
-    } else {
-      snprintf(path, sizeof path, "%s/measurements.exr", sc.output);
-      if (recon_measurements_write(ctx, &im, path) != HETINV_SUCCESS) status = recon_fail(PROG, ctx, path);
-      if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
-    }
-  }
-  double seconds = 0.0;
-  if (write_scene) {
-    /* written (or failed) above: nothing to simulate or recover */
-  } else if (status == 0 && recon_solve(ctx, &sc, &im, false, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
-    fprintf(stderr, PROG ": %s\n", msg);
-    status = 1;
-  }
-  recon_errors_t e;
-  if (write_scene) status = status != 0 ? status : -1; /* -1: done, nothing more below */
-  if (status == 0) {
-    recon_errors(truth, rec, &e);
-    if (recon_write_outputs(ctx, &sc, truth, rec, &e, msg, sizeof msg) != HETINV_SUCCESS) {
-      fprintf(stderr, PROG ": %s\n", msg);
-      status = 1;
-    }
-  }
-  double rel_rms = 0.0, tv = recon_now();
-  int64_t view_photons = 0;
-  if (status == 0 && novel_view_render(ctx, &sc, truth, rec, &rel_rms, &view_photons) != HETINV_SUCCESS) {
-    status = recon_fail(PROG, ctx, "novel view");
-  }
-  if (status == 0) {
-    double all_mean = 0.0, all_max = 0.0;
-    printf("\nrelative error of the recovery (%zu voxels):\n", hetinv_medium_voxel_count(truth));
-    printf("  parameter   mean      max\n");
-    for (int p = 0; p < 3; ++p) {
-      printf("  %-9s %6.2f %%  %6.2f %%\n", hetinv_param_name(p), 100.0 * e.mean[p], 100.0 * e.max[p]);
-      all_mean += e.mean[p] / 3.0;
-      all_max = fmax(all_max, e.max[p]);
-    }
-    printf("  %-9s %6.2f %%  %6.2f %%\n", "all", 100.0 * all_mean, 100.0 * all_max);
-    printf("  %-9s %6.2f %%  %6.2f %%   (paper, Fig. 5, all parameters, full resolution)\n", "paper", 9.31, 19.73);
-    printf("novel view (area light on y_min, camera on x_max, %d x %d, %lld photons): "
-           "relative RMS difference truth vs recovery %.2f %% (%.1f s)\n",
-           VIEW_PIXELS, VIEW_PIXELS, (long long)view_photons, 100.0 * rel_rms, recon_now() - tv);
-    printf("optimisation %.1f s, total %.1f s\n", seconds, recon_now() - t0);
-    printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv, novel_view.png, novel_view.exr}\n",
-           sc.output);
-  }
-  hetinv_medium_destroy(&rec);
+  if (status == 0 && !write_scene) status = recover(ctx, &sc, truth, &im, quiet, t0);
   hetinv_medium_destroy(&truth);
   recon_imaging_release(&im);
   hetinv_context_destroy(&ctx);
-  if (status < 0) status = 0; /* --write-scene: finished early */
   if (outdir_finish_stdout(PROG) != 0) status = 1;
   outdir_close(&dir);
   return status;

@@ -125,7 +125,8 @@ static void write_render_scene(FILE *f, const recon_scene_t *sc, const recon_ima
           (long long)sc->truth_photons, (unsigned long long)sc->seed, RECON_TRUTH_STREAM);
 }
 
-static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc) {
+static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const recon_imaging_t *im) {
+  (void)im; /* it names the render scene instead */
   char name[160];
   snprintf(name, sizeof name, "%s, from files", sc->name);
   fprintf(f, "{\n  \"name\": ");
@@ -168,8 +169,10 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc) {
   fprintf(f, "  \"seed\": %llu,\n  \"threads\": %d\n}\n", (unsigned long long)sc->seed, (int)sc->threads);
 }
 
-static int write_text(const char *dir, const char *file, const recon_scene_t *sc, const recon_imaging_t *im,
-                      char *msg, size_t n) {
+/* Writes <dir>/<file> whole or not at all with write(f, sc, im). */
+static int write_text(const char *dir, const char *file,
+                      void (*write)(FILE *, const recon_scene_t *, const recon_imaging_t *),
+                      const recon_scene_t *sc, const recon_imaging_t *im, char *msg, size_t n) {
   char path[1200], tmp[1300];
   snprintf(path, sizeof path, "%s/%s", dir, file);
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
@@ -177,11 +180,7 @@ static int write_text(const char *dir, const char *file, const recon_scene_t *sc
     snprintf(msg, n, "%s: %s", path, strerror(errno));
     return -1;
   }
-  if (im != NULL) {
-    write_render_scene(f, sc, im);
-  } else {
-    write_reconstruct_scene(f, sc);
-  }
+  write(f, sc, im);
   if (recon_text_commit(f, tmp, path) != 0) {
     snprintf(msg, n, "%s: %s", path, strerror(errno));
     return -1;
@@ -209,6 +208,6 @@ int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *sc, const het
       return -1;
     }
   }
-  if (write_text(dir, "render.json", sc, im, msg, n) < 0) return -1;
-  return write_text(dir, "reconstruct.json", sc, NULL, msg, n);
+  if (write_text(dir, "render.json", write_render_scene, sc, im, msg, n) < 0) return -1;
+  return write_text(dir, "reconstruct.json", write_reconstruct_scene, sc, im, msg, n);
 }
