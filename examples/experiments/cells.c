@@ -2,6 +2,7 @@
 #include "cells.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
@@ -17,6 +18,12 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
            sc->bounds_hi[0], sc->bounds_lo[1], sc->bounds_hi[1], sc->bounds_lo[2], sc->bounds_hi[2],
            (int)sc->pixels_per_voxel, sc->bin_width, (long long)sc->iterations, (long long)sc->photons,
            (long long)sc->truth_photons, (unsigned long long)sc->seed, sc->weighting);
+  /* Settings added later appear only when not at their default, so cells
+   * stored before them stay valid. */
+  if (sc->init_at_truth) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " init=truth levels=%d", (int)sc->levels[sc->level_count - 1]);
+  }
 }
 
 static const char *const NAMES[3] = {"sigma_a", "sigma_s", "g"};
@@ -51,5 +58,61 @@ int experiment_cell_store(const char *dir, const char *key, const experiment_cel
   fprintf(f, "key,%s\nparam,mean,max\n", key);
   for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.9g,%.9g\n", NAMES[p], cell->errors.mean[p], cell->errors.max[p]);
   fprintf(f, "seconds,%.3f\n", cell->seconds);
+  return recon_text_commit(f, tmp, path);
+}
+
+void experiment_bound_key(const recon_scene_t *sc, int64_t photons, int32_t replicates, char *key,
+                          size_t key_size) {
+  char cell[1024];
+  experiment_cell_key(sc, cell, sizeof cell);
+  snprintf(key, key_size, "%s bound_photons=%lld replicates=%d", cell, (long long)photons, (int)replicates);
+}
+
+/* A number as bound.csv writes it: NaN where the Fisher matrix was not
+ * positive definite. */
+static bool parse_number(const char **p, double *out) {
+  char *end = NULL;
+  *out = strtod(*p, &end);
+  if (end == *p) return false;
+  *p = end;
+  return true;
+}
+
+bool experiment_bound_load(const char *dir, const char *key, experiment_bound_t *b) {
+  char path[1200], line[2048];
+  snprintf(path, sizeof path, "%s/bound.csv", dir);
+  FILE *f = fopen(path, "r");
+  if (f == NULL) return false;
+  bool ok = fgets(line, sizeof line, f) != NULL && strncmp(line, "key,", 4) == 0;
+  if (ok) {
+    line[strcspn(line, "\n")] = '\0';
+    ok = strcmp(line + 4, key) == 0;
+  }
+  ok = ok && fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,median,max,lower_mean\n") == 0;
+  for (int p = 0; ok && p < 3; ++p) {
+    size_t len = strlen(NAMES[p]);
+    ok = fgets(line, sizeof line, f) != NULL && strncmp(line, NAMES[p], len) == 0 && line[len] == ',';
+    const char *at = line + len;
+    double *field[4] = {&b->mean[p], &b->median[p], &b->max[p], &b->lower_mean[p]};
+    for (int i = 0; ok && i < 4; ++i) ok = *at++ == ',' && parse_number(&at, field[i]);
+  }
+  int pd = 0;
+  ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "positive_definite,%d", &pd) == 1;
+  b->positive_definite = pd;
+  ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "seconds,%lf", &b->seconds) == 1;
+  fclose(f);
+  return ok;
+}
+
+int experiment_bound_store(const char *dir, const char *key, const experiment_bound_t *b) {
+  char path[1200], tmp[1220];
+  snprintf(path, sizeof path, "%s/bound.csv", dir);
+  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  if (f == NULL) return -1;
+  fprintf(f, "key,%s\nparam,mean,median,max,lower_mean\n", key);
+  for (int p = 0; p < 3; ++p) {
+    fprintf(f, "%s,%.9g,%.9g,%.9g,%.9g\n", NAMES[p], b->mean[p], b->median[p], b->max[p], b->lower_mean[p]);
+  }
+  fprintf(f, "positive_definite,%d\nseconds,%.3f\n", (int)b->positive_definite, b->seconds);
   return recon_text_commit(f, tmp, path);
 }

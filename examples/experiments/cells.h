@@ -24,4 +24,21 @@ bool experiment_cell_load(const char *dir, const char *key, experiment_cell_t *c
 /* Writes <dir>/cell.csv whole or not at all; -1 with errno on failure. */
 int experiment_cell_store(const char *dir, const char *key, const experiment_cell_t *cell);
 
+/* A cell's Cramér–Rao bound at its truth (recon_bound_t's summary):
+ * what the configuration's data allow, beside what the recovery reached. */
+typedef struct experiment_bound {
+  double mean[3], median[3], max[3]; /* relative, over the finite bounds */
+  double lower_mean[3];              /* mean of sqrt(1/F_kk)/value */
+  int32_t positive_definite;         /* 0: only lower_mean is meaningful */
+  double seconds;
+} experiment_bound_t;
+
+/* The cell's key and the bound's photons per emitter and replicates. */
+void experiment_bound_key(const recon_scene_t *scene, int64_t photons, int32_t replicates, char *key,
+                          size_t key_size);
+
+/* <dir>/bound.csv, as experiment_cell_load and experiment_cell_store. */
+bool experiment_bound_load(const char *dir, const char *key, experiment_bound_t *bound);
+int experiment_bound_store(const char *dir, const char *key, const experiment_bound_t *bound);
+
 #endif

@@ -58,6 +58,49 @@ static hetinv_result_t check(const hv_pass_t *pass, const hetinv_medium_t *mediu
   return HETINV_SUCCESS;
 }
 
+/* Rows of G per tile and values per block of the product below: a tile
+ * of G (32 rows of K ≤ 2048 doubles, 512 KiB) stays in cache while a
+ * block of values streams through it. */
+#define PRODUCT_TILE 32
+#define PRODUCT_BLOCK 256
+
+/* F = ½(G + Gᵀ) with G = ĴaᵀWĴb = Σ_n w_n a_n b_nᵀ (a_n, b_n: row n of the
+ * two count×K Jacobians), blocked like a matrix product and parallel over
+ * tiles of G's rows; each entry sums the values in order, so the result
+ * does not depend on the thread count. Zero weights (masked values) and
+ * zero entries of a_n (voxels the value's paths never saw) are skipped. */
+static void product(const double *ja, const double *jb, const double *w, size_t count, size_t K,
+                    int threads, double *F) {
+  (void)threads; /* without OpenMP */
+  memset(F, 0, K * K * sizeof(double));
+  const long tiles = (long)((K + PRODUCT_TILE - 1) / PRODUCT_TILE);
+  for (size_t n0 = 0; n0 < count; n0 += PRODUCT_BLOCK) {
+    size_t n1 = n0 + PRODUCT_BLOCK < count ? n0 + PRODUCT_BLOCK : count;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic) num_threads(threads)
+#endif
+    for (long tile = 0; tile < tiles; ++tile) {
+      size_t i0 = (size_t)tile * PRODUCT_TILE, i1 = i0 + PRODUCT_TILE < K ? i0 + PRODUCT_TILE : K;
+      for (size_t n = n0; n < n1; ++n) {
+        if (w[n] == 0.0) continue;
+        const double *a = ja + n * K, *b = jb + n * K;
+        for (size_t i = i0; i < i1; ++i) {
+          double ai = w[n] * a[i];
+          if (ai == 0.0) continue;
+          double *row = F + i * K;
+          for (size_t j = 0; j < K; ++j) row[j] += ai * b[j];
+        }
+      }
+    }
+  }
+  for (size_t i = 0; i < K; ++i) { /* symmetric exactly */
+    for (size_t j = i; j < K; ++j) {
+      double x = 0.5 * (F[i * K + j] + F[j * K + i]);
+      F[i * K + j] = F[j * K + i] = x;
+    }
+  }
+}
+
 /* The R replicates F_r, each K·K, into reps. */
 static hetinv_result_t replicates_of(const hv_pass_t *pass, const hetinv_param_map_t *map,
                                      const double *w, size_t count, int32_t R, size_t K,
@@ -89,21 +132,7 @@ static hetinv_result_t replicates_of(const hv_pass_t *pass, const hetinv_param_m
     p.stream = (p.stream + 1u) % HV_RNG_STREAM_LIMIT;
     r = hv_tangent_run(&p, tangent, (int32_t)K, count, j2, NULL);
     if (r != HETINV_SUCCESS) break;
-    double *F = reps + (size_t)rep * K * K;
-    memset(F, 0, K * K * sizeof(double));
-    for (size_t n = 0; n < count; ++n) {
-      if (w[n] == 0.0) continue;
-      const double *a = j1 + n * K, *b = j2 + n * K;
-      for (size_t i = 0; i < K; ++i) {
-        double ai = 0.5 * w[n] * a[i], bi = 0.5 * w[n] * b[i];
-        if (ai == 0.0 && bi == 0.0) continue;
-        double *row = F + i * K;
-        for (size_t j = i; j < K; ++j) row[j] += ai * b[j] + bi * a[j];
-      }
-    }
-    for (size_t i = 0; i < K; ++i) { /* symmetric exactly: the lower triangle mirrors */
-      for (size_t j = 0; j < i; ++j) F[i * K + j] = F[j * K + i];
-    }
+    product(j1, j2, w, count, K, pass->threads, reps + (size_t)rep * K * K);
   }
   hv_free(ctx, eye);
   hv_free(ctx, tangent);

@@ -20,19 +20,23 @@ typedef struct tangent_pass {
   size_t T;
   hv_tally_t *tallies;    /* one per tally slot (batches.h); values: count·T */
   hv_grad_tally_t *grads; /* one per slot: the score logs and running sums */
-  double *total, *mean_sum, *mean_sq; /* count·T each */
+  double *total;              /* count·T: the caller's output, scaled at the end */
+  double *mean_sum, *mean_sq; /* count·T each, only when standard errors are asked */
+  /* The tangents' nonzeros by voxel-space row (path_jvp.h), when sparse. */
+  size_t *sparse_start;
+  int32_t *sparse_index;
+  double *sparse_value;
   bool out_of_memory;
 } tangent_pass_t;
 
+/* Tallies are compact: a slot holds the values of one plan (emitter) at a
+ * time, numbered by hv_row_target_t::local, K doubles each. */
 static void run_item(void *self, int64_t item, int slot) {
   tangent_pass_t *f = self;
   hv_tally_t *tally = &f->tallies[slot];
   int32_t e = f->pass->emitter_lo + (int32_t)(item / f->pass->batches);
   const hv_plan_t *plan = &f->pass->plans.plan[e];
-  for (int32_t i = 0; i < plan->range_count; ++i) {
-    size_t n = plan->range_hi[i] - plan->range_lo[i];
-    memset(tally->values + plan->range_lo[i] * f->T, 0, n * f->T * sizeof(double));
-  }
+  memset(tally->values, 0, plan->value_count * f->T * sizeof(double));
   hv_pass_trace_batch(f->pass, e, (int32_t)(item % f->pass->batches), tally);
   hv_grad_tally_t *gt = &f->grads[slot];
   if (gt->path.out_of_memory || gt->chain.out_of_memory) f->out_of_memory = true;
@@ -46,11 +50,19 @@ static void reduce_item(void *self, int64_t item, int slot) {
   const hv_plan_t *plan = &pass->plans.plan[e];
   double n = hv_pass_batch_size(pass, (int32_t)(item % pass->batches));
   for (int32_t i = 0; i < plan->range_count; ++i) {
-    for (size_t k = plan->range_lo[i] * f->T; k < plan->range_hi[i] * f->T; ++k) {
-      double x = tally->values[k], m = x / n;
-      f->total[k] += x;
-      f->mean_sum[k] += m;
-      f->mean_sq[k] += m * m;
+    const hv_row_target_t *row = &plan->rows[i];
+    size_t end = i + 1 < plan->range_count ? plan->rows[i + 1].local : plan->value_count;
+    const double *src = tally->values + row->local * f->T;
+    double *total = f->total + row->offset * f->T;
+    size_t len = (end - row->local) * f->T, at = row->offset * f->T;
+    for (size_t k = 0; k < len; ++k) {
+      double x = src[k];
+      total[k] += x;
+      if (f->mean_sum) {
+        double m = x / n;
+        f->mean_sum[at + k] += m;
+        f->mean_sq[at + k] += m * m;
+      }
     }
   }
 }
@@ -66,9 +78,37 @@ static void release(const hetinv_context_t *ctx, tangent_pass_t *f, int slots) {
   }
   hv_free(ctx, f->tallies);
   hv_free(ctx, f->grads);
-  hv_free(ctx, f->total);
   hv_free(ctx, f->mean_sum);
   hv_free(ctx, f->mean_sq);
+  hv_free(ctx, f->sparse_start);
+  hv_free(ctx, f->sparse_index);
+  hv_free(ctx, f->sparse_value);
+}
+
+/* The sparse copy of the tangents when at most a quarter of their entries
+ * are nonzero (one-hot tangents: one per row); true if none is needed or
+ * it was built, false without memory. */
+static bool sparsify(const hetinv_context_t *ctx, const double *tangent, size_t rows, size_t T,
+                     tangent_pass_t *f) {
+  size_t nnz = 0;
+  for (size_t i = 0; i < rows * T; ++i) nnz += tangent[i] != 0.0;
+  if (nnz > rows * T / 4) return true;
+  f->sparse_start = hv_calloc(ctx, rows + 1, sizeof(size_t));
+  f->sparse_index = hv_calloc(ctx, nnz ? nnz : 1, sizeof(int32_t));
+  f->sparse_value = hv_calloc(ctx, nnz ? nnz : 1, sizeof(double));
+  if (!(f->sparse_start && f->sparse_index && f->sparse_value)) return false;
+  size_t at = 0;
+  for (size_t row = 0; row < rows; ++row) {
+    f->sparse_start[row] = at;
+    for (size_t t = 0; t < T; ++t) {
+      double v = tangent[row * T + t];
+      if (v == 0.0) continue;
+      f->sparse_index[at] = (int32_t)t;
+      f->sparse_value[at++] = v;
+    }
+  }
+  f->sparse_start[rows] = at;
+  return true;
 }
 
 hetinv_result_t hv_check_pi_map(const hetinv_context_t *ctx, const hetinv_param_map_t *map,
@@ -102,22 +142,36 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
     return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%zu values times %d tangents overflow",
                    count, (int)tangents);
   }
+  size_t largest = 0, slot_values = 0; /* the largest plan's values, times T */
+  for (int32_t e = pass->emitter_lo; e < pass->emitter_hi; ++e) {
+    if (pass->plans.plan[e].value_count > largest) largest = pass->plans.plan[e].value_count;
+  }
+  if (!hv_mul_size(largest, f.T, &slot_values)) {
+    return HV_FAIL(ctx, HETINV_ERROR_SIZE_OVERFLOW, "%zu values times %d tangents overflow",
+                   largest, (int)tangents);
+  }
   int threads, slots = hv_pass_slot_count(
-      pass, n <= SIZE_MAX / sizeof(double) ? n * sizeof(double) : SIZE_MAX, &threads);
+      pass, slot_values <= SIZE_MAX / sizeof(double) ? slot_values * sizeof(double) : SIZE_MAX,
+      &threads);
   f.tallies = hv_calloc(ctx, (size_t)slots, sizeof *f.tallies);
   f.grads = hv_calloc(ctx, (size_t)slots, sizeof *f.grads);
-  f.total = hv_calloc(ctx, n ? n : 1, sizeof(double));
-  f.mean_sum = hv_calloc(ctx, n ? n : 1, sizeof(double));
-  f.mean_sq = hv_calloc(ctx, n ? n : 1, sizeof(double));
-  bool ok = f.tallies && f.grads && f.total && f.mean_sum && f.mean_sq;
+  f.total = values;
+  memset(values, 0, n * sizeof(double));
+  if (std_errors) {
+    f.mean_sum = hv_calloc(ctx, n ? n : 1, sizeof(double));
+    f.mean_sq = hv_calloc(ctx, n ? n : 1, sizeof(double));
+  }
+  bool ok = f.tallies && f.grads && (std_errors == NULL || (f.mean_sum && f.mean_sq)) &&
+            sparsify(ctx, tangent, 3 * voxels, f.T, &f);
   for (int t = 0; ok && t < slots; ++t) {
     hv_grad_tally_t *gt = &f.grads[t];
     gt->path.ctx = gt->chain.ctx = ctx;
     gt->voxels = voxels;
     gt->jvp = (hv_jvp_state_t){.grid = &pass->grid, .tangent = tangent, .tangents = tangents,
-                               .voxels = voxels};
+                               .voxels = voxels, .sparse_start = f.sparse_start,
+                               .sparse_index = f.sparse_index, .sparse_value = f.sparse_value};
     gt->jvp.run = hv_calloc(ctx, 2 * f.T, sizeof(double));
-    f.tallies[t].values = hv_calloc(ctx, n ? n : 1, sizeof(double));
+    f.tallies[t].values = hv_calloc(ctx, slot_values ? slot_values : 1, sizeof(double));
     f.tallies[t].grad = gt;
     ok = gt->jvp.run && f.tallies[t].values;
   }
@@ -135,7 +189,7 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
   } else {
     double photons = (double)pass->photons;
     for (size_t k = 0; k < n; ++k) {
-      values[k] = f.total[k] / photons;
+      values[k] /= photons;
       if (std_errors) std_errors[k] = hv_batch_std_error(f.mean_sum[k], f.mean_sq[k], pass->batches);
     }
   }

@@ -15,24 +15,36 @@ static const double *entries(const hv_jvp_state_t *st, int p, int64_t k) {
   return st->tangent + ((size_t)p * st->voxels + (size_t)k) * (size_t)st->tangents;
 }
 
+/* run += x · (entries of parameter block p at voxel k). */
+static void add_scaled(const hv_jvp_state_t *st, int p, int64_t k, double x, double *run) {
+  if (st->sparse_start) {
+    size_t row = (size_t)p * st->voxels + (size_t)k;
+    for (size_t i = st->sparse_start[row]; i < st->sparse_start[row + 1]; ++i) {
+      run[st->sparse_index[i]] += x * st->sparse_value[i];
+    }
+    return;
+  }
+  const double *e = entries(st, p, k);
+  for (int32_t t = 0; t < st->tangents; ++t) run[t] += x * e[t];
+}
+
 void hv_jvp_chain_begin(hv_jvp_state_t *st, int64_t vertex, double dlog_dg) {
-  int32_t T = st->tangents;
-  double *run = st->run + T;
-  const double *g = entries(st, HETINV_PARAM_G, vertex);
-  for (int32_t t = 0; t < T; ++t) run[t] = dlog_dg * g[t];
+  double *run = st->run + st->tangents;
+  memset(run, 0, (size_t)st->tangents * sizeof(double));
+  add_scaled(st, HETINV_PARAM_G, vertex, dlog_dg, run);
   st->chain_done = 0;
   st->chain_vertex = -1;
 }
 
 /* run -= length·(v_σa + v_σs) of voxel k: a segment's transmittance score. */
 static void add_extinction(const hv_jvp_state_t *st, int64_t k, double length, double *run) {
+  if (st->sparse_start) {
+    add_scaled(st, HETINV_PARAM_SIGMA_A, k, -length, run);
+    add_scaled(st, HETINV_PARAM_SIGMA_S, k, -length, run);
+    return;
+  }
   const double *a = entries(st, HETINV_PARAM_SIGMA_A, k), *s = entries(st, HETINV_PARAM_SIGMA_S, k);
   for (int32_t t = 0; t < st->tangents; ++t) run[t] -= length * (a[t] + s[t]);
-}
-
-static void add_scaled(const hv_jvp_state_t *st, int p, int64_t k, double x, double *run) {
-  const double *e = entries(st, p, k);
-  for (int32_t t = 0; t < st->tangents; ++t) run[t] += x * e[t];
 }
 
 /* A straight segment split into voxels as hv_grad_apply_log splits it;

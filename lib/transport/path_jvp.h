@@ -22,6 +22,15 @@ typedef struct hv_jvp_state {
   const double *tangent;
   int32_t tangents; /* T; 0: not tangent mode */
   size_t voxels;
+  /* Optional sparse copy of `tangent` (sparse_start NULL: use the dense
+   * one): row r = p·voxels + k holds its nonzero entries t =
+   * sparse_index[i] with values sparse_value[i] for i in [sparse_start[r],
+   * sparse_start[r + 1]). One-hot tangents (the Fisher matrix's K of them)
+   * have one nonzero per row, so a voxel crossing costs O(1) instead of
+   * O(T). */
+  const size_t *sparse_start;
+  const int32_t *sparse_index;
+  const double *sparse_value;
   double *run; /* 2T running sums: the path's, then the current connection's */
   size_t path_done, chain_done;       /* entries of each log already summed */
   int64_t path_vertex, chain_vertex;  /* voxel ending the last RAY entry summed */

@@ -46,7 +46,8 @@ static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *
     for (int32_t j = i; j < n; ++j) {
       const hv_row_t *r = &set->rows[row_ids[j]];
       if (r->sensor != s) continue;
-      p->rows[placed++] = (hv_row_target_t){r->offset, r->pixels, r->pathlength};
+      p->rows[placed++] = (hv_row_target_t){r->offset, p->value_count, r->pixels, r->pathlength};
+      p->value_count += (size_t)r->pixels * (size_t)r->bins;
       t->row_count++;
     }
     if (t->kind->prepare) t->kind->prepare(t);

@@ -13,6 +13,7 @@
 
 typedef struct hv_row_target {
   size_t offset;   /* first value of the row */
+  size_t local;    /* its first value among the plan's own (hv_plan_t::value_count) */
   int32_t pixels;  /* stride between bins */
   const hetinv_pathlength_t *pathlength;
 } hv_row_target_t;
@@ -37,6 +38,10 @@ typedef struct hv_plan {
   hv_row_target_t *rows;
   int32_t range_count;                 /* the value ranges its rows cover */
   size_t *range_lo, *range_hi;
+  /* Values of its rows together, numbered by hv_row_target_t::local: a
+   * tally that only this plan's photons fill can be this small (the
+   * tangent pass keeps K doubles per value). */
+  size_t value_count;
 } hv_plan_t;
 
 typedef struct hv_plans {

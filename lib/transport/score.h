@@ -16,9 +16,10 @@ static inline void hv_score(const hv_plan_t *plan, const hv_sensor_target_t *t, 
   for (int32_t i = 0; i < t->row_count; ++i) {
     const hv_row_target_t *row = &plan->rows[t->first_row + i];
     if (gt && gt->jvp.tangents > 0) {
+      /* Tangent tallies hold the plan's own values only (row->local). */
       size_t T = (size_t)gt->jvp.tangents;
       hv_jvp_splat(&gt->jvp, &gt->path, log == &gt->chain ? log : NULL, row->pathlength, tau, value,
-                   dst + ((size_t)row->offset + (size_t)pixel) * T, (size_t)row->pixels * T);
+                   dst + ((size_t)row->local + (size_t)pixel) * T, (size_t)row->pixels * T);
     } else if (gt) {
       log->scored = true;
       log->cum += value * hv_pathlength_dot(row->pathlength, tau,

@@ -82,7 +82,9 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
  * (grad->jvp.tangents > 0) values holds T doubles per value of the set's
  * layout: value n, tangent t at values[n·T + t]. */
 typedef struct hv_tally {
-  double *values;    /* the set's value layout (forward and tangent modes) */
+  /* Forward mode: the set's value layout. Tangent mode: the plan's own
+   * values (hv_row_target_t::local), T doubles each. */
+  double *values;
   double *ballistic; /* same layout, or NULL */
   hv_grad_tally_t *grad; /* NULL: forward mode; see hv_grad_tally_t */
   double stats[HV_STAT_COUNT];
