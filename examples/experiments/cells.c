@@ -88,17 +88,20 @@ bool experiment_bound_load(const char *dir, const char *key, experiment_bound_t 
     line[strcspn(line, "\n")] = '\0';
     ok = strcmp(line + 4, key) == 0;
   }
-  ok = ok && fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,median,max,lower_mean\n") == 0;
+  ok = ok && fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,median,max,lower_mean,local_mean,local_max\n") == 0;
   for (int p = 0; ok && p < 3; ++p) {
     size_t len = strlen(NAMES[p]);
     ok = fgets(line, sizeof line, f) != NULL && strncmp(line, NAMES[p], len) == 0 && line[len] == ',';
     const char *at = line + len;
-    double *field[4] = {&b->mean[p], &b->median[p], &b->max[p], &b->lower_mean[p]};
-    for (int i = 0; ok && i < 4; ++i) ok = *at++ == ',' && parse_number(&at, field[i]);
+    double *field[6] = {&b->mean[p],       &b->median[p],     &b->max[p],
+                        &b->lower_mean[p], &b->local_mean[p], &b->local_max[p]};
+    for (int i = 0; ok && i < 6; ++i) ok = *at++ == ',' && parse_number(&at, field[i]);
   }
-  int pd = 0;
+  int pd = 0, radius = -1;
   ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "positive_definite,%d", &pd) == 1;
+  ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "local_radius,%d", &radius) == 1;
   b->positive_definite = pd;
+  b->local_radius = radius;
   ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "seconds,%lf", &b->seconds) == 1;
   fclose(f);
   return ok;
@@ -109,10 +112,12 @@ int experiment_bound_store(const char *dir, const char *key, const experiment_bo
   snprintf(path, sizeof path, "%s/bound.csv", dir);
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
   if (f == NULL) return -1;
-  fprintf(f, "key,%s\nparam,mean,median,max,lower_mean\n", key);
+  fprintf(f, "key,%s\nparam,mean,median,max,lower_mean,local_mean,local_max\n", key);
   for (int p = 0; p < 3; ++p) {
-    fprintf(f, "%s,%.9g,%.9g,%.9g,%.9g\n", NAMES[p], b->mean[p], b->median[p], b->max[p], b->lower_mean[p]);
+    fprintf(f, "%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", NAMES[p], b->mean[p], b->median[p], b->max[p],
+            b->lower_mean[p], b->local_mean[p], b->local_max[p]);
   }
-  fprintf(f, "positive_definite,%d\nseconds,%.3f\n", (int)b->positive_definite, b->seconds);
+  fprintf(f, "positive_definite,%d\nlocal_radius,%d\nseconds,%.3f\n", (int)b->positive_definite,
+          (int)b->local_radius, b->seconds);
   return recon_text_commit(f, tmp, path);
 }

@@ -29,7 +29,11 @@ int experiment_cell_store(const char *dir, const char *key, const experiment_cel
 typedef struct experiment_bound {
   double mean[3], median[3], max[3]; /* relative, over the finite bounds */
   double lower_mean[3];              /* mean of sqrt(1/F_kk)/value */
-  int32_t positive_definite;         /* 0: only lower_mean is meaningful */
+  int32_t positive_definite;         /* 0: mean, median, max are NaN */
+  /* Where F̂ is not positive definite: the local bound at
+   * recon_bound_t::local_best, mean and max; radius −1 and NaN otherwise. */
+  int32_t local_radius;
+  double local_mean[3], local_max[3];
   double seconds;
 } experiment_bound_t;
 

@@ -276,6 +276,7 @@ int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
  * plus the simulated data's render error, or from files the given
  * standard errors. rel: +inf where nothing reaches the voxel, NaN if the
  * estimated Fisher matrix is not positive definite. */
+#define RECON_LOCAL_RADII 4 /* 0 to 3: at most 3·7³ = 1029 entries per window */
 typedef struct recon_bound {
   bool done;
   bool at_recovery; /* evaluated at the recovery, not at the truth */
@@ -289,6 +290,16 @@ typedef struct recon_bound {
   int64_t photons;
   int32_t replicates;
   double seconds;
+  /* Only where F̂ is not positive definite: the local bound
+   * (hetinv_fisher_local_crb) at radii 0 .. local_radii − 1, relative.
+   * A window whose F̂ is not positive definite leaves its voxel
+   * undetermined; past some radius most are, so the figure to quote is
+   * local_best's. */
+  int32_t local_radii;
+  int32_t local_best; /* the largest radius with no more undetermined voxels than radius 0 */
+  double *local[3];   /* per voxel at local_best */
+  double local_mean[RECON_LOCAL_RADII][3], local_max[RECON_LOCAL_RADII][3];
+  size_t local_undefined[RECON_LOCAL_RADII][3];
 } recon_bound_t;
 hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *scene,
                                     const hetinv_medium_t *truth, recon_imaging_t *im,

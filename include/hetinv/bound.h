@@ -149,6 +149,38 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
     const double *variances, size_t count, const hetinv_param_map_t *map, int32_t probes,
     double *diagonal, double *diagonal_std_errors, size_t k);
 
+/**
+ * @brief Local Cramér–Rao bound from a Fisher matrix, for maps whose F̂
+ *        cannot be estimated positive definite at an affordable photon
+ *        count: entry k's bound when only the entries within @p radius
+ *        cells of its own cell are unknown and every other entry is known.
+ *
+ * For each cell of the map, W is every free parameter of every cell at
+ * Chebyshev distance ≤ radius on the map's grid (hetinv_param_map_get_dims())
+ * and sd_k = sqrt(((F_WW)⁻¹)_kk). For nested windows this never decreases
+ * with the radius, and it is a LOWER bound on the CRB sqrt((F⁻¹)_kk) of
+ * hetinv_estimator_crb(), which it reaches once the window holds every
+ * entry: radius 0 separates the parameters of one cell (σa, σs and g of a
+ * voxel, which steady light confounds), radius 1 also its neighbours (a
+ * correct sum split wrongly between two voxels). Where the full F̂ is not
+ * positive definite, the radius at which the windows stop being positive
+ * definite is itself what the data cannot resolve at this precision.
+ * Pure linear algebra: O(cells · (3(2r+1)^d)³).
+ * @param map the map F was estimated for.
+ * @param fisher k·k values, row-major, symmetric (hetinv_estimator_fisher()).
+ * @param k hetinv_param_map_size(map).
+ * @param radius 0 or more; its windows may hold at most
+ *        #HETINV_FISHER_MAX_ENTRIES entries.
+ * @param[out] sd k standard deviations in the units of π: +∞ where F_kk is
+ *        exactly 0 (nothing reaches the entry), NaN where the window's
+ *        matrix is not positive definite.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (k, radius);
+ *         HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_fisher_local_crb(const hetinv_param_map_t *map, const double *fisher,
+                                                   size_t k, int32_t radius, double *sd);
+
 #ifdef __cplusplus
 }
 #endif

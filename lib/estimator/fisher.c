@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "core/rng.h"
 #include "estimator/pass.h"
+#include "estimator/spd.h"
 #include "hetinv/bound.h"
 #include "medium/medium_internal.h"
 #include "param/param_map_internal.h"
@@ -198,45 +199,6 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher(
   return HETINV_SUCCESS;
 }
 
-/* diag(A⁻¹) of the symmetric m×m matrix A (row-major, overwritten) through
- * its Cholesky factor, after scaling to a unit diagonal; false if A is not
- * positive definite (a pivot below 1e-12 of the unit diagonal). */
-static bool inverse_diagonal(double *A, size_t m, double *scale, double *out) {
-  for (size_t i = 0; i < m; ++i) {
-    if (!(A[i * m + i] > 0.0)) return false;
-    scale[i] = 1.0 / sqrt(A[i * m + i]);
-  }
-  for (size_t i = 0; i < m; ++i) {
-    for (size_t j = 0; j < m; ++j) A[i * m + j] *= scale[i] * scale[j];
-  }
-  for (size_t j = 0; j < m; ++j) { /* A = L Lᵀ, L in the lower triangle */
-    double d = A[j * m + j];
-    for (size_t l = 0; l < j; ++l) d -= A[j * m + l] * A[j * m + l];
-    if (!(d > 1e-12)) return false;
-    double ljj = sqrt(d);
-    A[j * m + j] = ljj;
-    for (size_t i = j + 1; i < m; ++i) {
-      double s = A[i * m + j];
-      for (size_t l = 0; l < j; ++l) s -= A[i * m + l] * A[j * m + l];
-      A[i * m + j] = s / ljj;
-    }
-  }
-  /* X = L⁻¹ (lower triangular) into the upper triangle's mirror: solve
-   * column by column; (A⁻¹)_kk = Σ_i X_ik². */
-  for (size_t k = 0; k < m; ++k) out[k] = 0.0;
-  double *x = scale + m; /* m scratch doubles */
-  for (size_t c = 0; c < m; ++c) {
-    for (size_t i = c; i < m; ++i) {
-      double s = i == c ? 1.0 : 0.0;
-      for (size_t l = c; l < i; ++l) s -= A[i * m + l] * x[l];
-      x[i] = s / A[i * m + i];
-      out[c] += x[i] * x[i];
-    }
-  }
-  for (size_t k = 0; k < m; ++k) out[k] *= scale[k] * scale[k];
-  return true;
-}
-
 /* CRB standard deviations of the entries in `keep` (m of them) from the
  * K×K matrix F; false if F restricted to them is not positive definite. */
 static bool crb_of(const double *F, size_t K, const size_t *keep, size_t m, double *A,
@@ -244,7 +206,7 @@ static bool crb_of(const double *F, size_t K, const size_t *keep, size_t m, doub
   for (size_t i = 0; i < m; ++i) {
     for (size_t j = 0; j < m; ++j) A[i * m + j] = F[keep[i] * K + keep[j]];
   }
-  if (!inverse_diagonal(A, m, scratch, sd)) return false;
+  if (!hv_spd_inverse_diagonal(A, m, scratch, sd)) return false;
   for (size_t i = 0; i < m; ++i) sd[i] = sqrt(sd[i]);
   return true;
 }

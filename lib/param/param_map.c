@@ -25,6 +25,8 @@ struct hetinv_param_map {
   axis_map_t axis[3];
 };
 
+const hetinv_context_t *hv_param_map_context(const hetinv_param_map_t *map) { return map->ctx; }
+
 HETINV_API void hetinv_param_map_destroy(hetinv_param_map_t **map) {
   HV_API_ENTER();
   if (map == NULL || *map == NULL) return;

@@ -7,6 +7,9 @@
 
 #include "hetinv/param.h"
 
+/* The context the map was created in (for errors and allocation). */
+const hetinv_context_t *hv_param_map_context(const hetinv_param_map_t *map);
+
 /* True if the map was made for the medium's grid. */
 bool hv_param_map_fits(const hetinv_param_map_t *map, const hetinv_medium_t *medium);
 
