@@ -250,8 +250,8 @@ static int bound_table(const char *out, int64_t volumes, const bool configs[5], 
     printf(" %9.0f", seconds[c]);
     for (int p = 0; error_mean && p < 3; ++p) printf(" %5.1f", error_mean[c][p] / mean[c][p]);
     if (pd[c] < volumes) {
-      printf("  (F not positive definite on %lld volume(s): local bound, radius %d)", (long long)(volumes - pd[c]),
-             local[c]);
+      printf("  (F not positive definite on %lld volume(s): local bound, radius >= %d)",
+             (long long)(volumes - pd[c]), local[c]);
     }
     printf("\n");
     if (f) {
@@ -403,7 +403,7 @@ int main(int argc, char **argv) {
   if (outdir_open(&dir, "hetinv-fig4", out) != 0) return 1;
   double table_mean[5][3] = {{0}}, table_max[5][3] = {{0}}, seconds[5] = {0};
   double bound_mean[5][3] = {{0}}, bound_max[5][3] = {{0}}, bound_seconds[5] = {0};
-  int bound_pd[5] = {0}, bound_local[5] = {-1, -1, -1, -1, -1};
+  int bound_pd[5] = {0}, bound_local[5] = {-1, -1, -1, -1, -1}; /* the smallest local radius */
   double t_all = recon_now();
   for (int c = 1; c <= 4; ++c) {
     if (!configs[c]) continue;
@@ -434,7 +434,7 @@ int main(int argc, char **argv) {
         /* Where F̂ is not positive definite, the local bound stands in
          * (a lower bound of the bound; the table says so). */
         bool local = !b.positive_definite && b.local_radius >= 0;
-        if (local) bound_local[c] = b.local_radius;
+        if (local && (bound_local[c] < 0 || b.local_radius < bound_local[c])) bound_local[c] = b.local_radius;
         for (int p = 0; p < 3; ++p) {
           double mean = local ? b.local_mean[p] : b.mean[p], max = local ? b.local_max[p] : b.max[p];
           bound_mean[c][p] += mean / (double)volumes;

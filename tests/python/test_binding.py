@@ -346,6 +346,11 @@ class Bound(unittest.TestCase):
                 self.assertGreater(lo, 0.0)
                 if b.positive_definite:
                     self.assertGreaterEqual(s, lo * (1 - 1e-12))
+            f = est.fisher(m, rows, [1e-6, 1e-6], pmap, replicates=4)
+            local = list(hetinv.flat(pmap.local_crb(f.fisher, radius=0)))
+            self.assertEqual(len(local), pmap.size)
+            with self.assertRaisesRegex(ValueError, "fisher"):
+                pmap.local_crb([1.0, 2.0])
 
 
 if __name__ == "__main__":

@@ -143,3 +143,16 @@ class ParamMap(Handle):
         out, ptr = _arrays.empty(n, "d", self.shape)
         check(lib.param_map_pullback(self._ptr, g.ptr, ptr, n))
         return out
+
+    def local_crb(self, fisher, radius=1):
+        """The local Cramér–Rao bound from a Fisher matrix of this map's
+        entries (Estimator.fisher().fisher, k·k values): each entry's bound
+        with only the cells within `radius` of its own unknown; a lower
+        bound of Estimator.crb()'s that grows with the radius (bound.h).
+        Shaped self.shape with numpy; inf where nothing reaches the entry,
+        nan where the window's matrix is not positive definite."""
+        n = self.size
+        f = _arrays.to_c(fisher, "d", n * n, "fisher")
+        out, ptr = _arrays.empty(n, "d", self.shape)
+        check(lib.fisher_local_crb(self._ptr, f.ptr, n, integer(radius, "radius", "int32"), ptr))
+        return out
