@@ -28,17 +28,30 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
 
 static const char *const NAMES[3] = {"sigma_a", "sigma_s", "g"};
 
-bool experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell) {
+/* <dir>/<file> open after its first line "key,<key>"; NULL if it is
+ * missing or was stored for other settings. */
+static FILE *open_keyed(const char *dir, const char *file, const char *key) {
   char path[1200], line[2048];
-  snprintf(path, sizeof path, "%s/cell.csv", dir);
+  snprintf(path, sizeof path, "%s/%s", dir, file);
   FILE *f = fopen(path, "r");
-  if (f == NULL) return false;
+  if (f == NULL) return NULL;
   bool ok = fgets(line, sizeof line, f) != NULL && strncmp(line, "key,", 4) == 0;
   if (ok) {
     line[strcspn(line, "\n")] = '\0';
     ok = strcmp(line + 4, key) == 0;
   }
-  ok = ok && fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,max\n") == 0;
+  if (!ok) {
+    fclose(f);
+    return NULL;
+  }
+  return f;
+}
+
+bool experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell) {
+  char line[2048];
+  FILE *f = open_keyed(dir, "cell.csv", key);
+  if (f == NULL) return false;
+  bool ok = fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,max\n") == 0;
   for (int p = 0; ok && p < 3; ++p) {
     char name[16];
     ok = fgets(line, sizeof line, f) != NULL &&
@@ -79,16 +92,10 @@ static bool parse_number(const char **p, double *out) {
 }
 
 bool experiment_bound_load(const char *dir, const char *key, experiment_bound_t *b) {
-  char path[1200], line[2048];
-  snprintf(path, sizeof path, "%s/bound.csv", dir);
-  FILE *f = fopen(path, "r");
+  char line[2048];
+  FILE *f = open_keyed(dir, "bound.csv", key);
   if (f == NULL) return false;
-  bool ok = fgets(line, sizeof line, f) != NULL && strncmp(line, "key,", 4) == 0;
-  if (ok) {
-    line[strcspn(line, "\n")] = '\0';
-    ok = strcmp(line + 4, key) == 0;
-  }
-  ok = ok && fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,median,max,lower_mean,local_mean,local_max\n") == 0;
+  bool ok = fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,median,max,lower_mean,local_mean,local_max\n") == 0;
   for (int p = 0; ok && p < 3; ++p) {
     size_t len = strlen(NAMES[p]);
     ok = fgets(line, sizeof line, f) != NULL && strncmp(line, NAMES[p], len) == 0 && line[len] == ',';
