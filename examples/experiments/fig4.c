@@ -317,6 +317,30 @@ static int bound_cell(const recon_scene_t *sc, int64_t threads, int64_t photons,
   return status;
 }
 
+/* A cell's bound: read back from its bound.csv if an earlier run stored
+ * it with these settings, else computed (bound_cell) and stored. */
+static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photons, int32_t replicates, bool quiet,
+                        experiment_bound_t *b) {
+  char key[1200];
+  experiment_bound_key(sc, photons, replicates, key, sizeof key);
+  if (experiment_bound_load(sc->output, key, b)) {
+    if (!quiet) {
+      bool local = !b->positive_definite && b->local_radius >= 0;
+      const double *mean = local ? b->local_mean : b->mean, *max = local ? b->local_max : b->max;
+      printf("%s: bound (stored by an earlier run%s): mean/max sigma_a %.2f/%.2f %%, sigma_s %.2f/%.2f %%, "
+             "g %.2f/%.2f %%\n", sc->name, local ? "; local" : "", 100 * mean[0], 100 * max[0], 100 * mean[1],
+             100 * max[1], 100 * mean[2], 100 * max[2]);
+    }
+    return 0;
+  }
+  if (bound_cell(sc, threads, photons, replicates, quiet, b) != 0) return 1;
+  if (experiment_bound_store(sc->output, key, b) != 0) {
+    fprintf(stderr, "hetinv-fig4: %s/bound.csv: %s\n", sc->output, strerror(errno));
+    return 1;
+  }
+  return 0;
+}
+
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
   bool bound = false, bound_only = false, init_truth = false;
@@ -421,14 +445,9 @@ int main(int argc, char **argv) {
         continue;
       }
       if (bound || bound_only) {
-        const int64_t bp = bound_photons > 0 ? bound_photons : sc.photons;
-        char bkey[1200];
-        experiment_bound_key(&sc, bp, (int32_t)bound_replicates, bkey, sizeof bkey);
         experiment_bound_t b;
-        bool stored = experiment_bound_load(sc.output, bkey, &b);
-        if (!stored && bound_cell(&sc, threads, bp, (int32_t)bound_replicates, quiet, &b) != 0) return 1;
-        if (!stored && experiment_bound_store(sc.output, bkey, &b) != 0) {
-          fprintf(stderr, "hetinv-fig4: %s/bound.csv: %s\n", sc.output, strerror(errno));
+        if (stored_bound(&sc, threads, bound_photons > 0 ? bound_photons : sc.photons, (int32_t)bound_replicates,
+                         quiet, &b) != 0) {
           return 1;
         }
         /* Where F̂ is not positive definite, the local bound stands in
@@ -442,11 +461,6 @@ int main(int argc, char **argv) {
         }
         bound_seconds[c] += b.seconds;
         bound_pd[c] += b.positive_definite;
-        if (!quiet && stored) {
-          printf("%s: bound (stored by an earlier run): mean/max sigma_a %.2f/%.2f %%, sigma_s %.2f/%.2f %%, "
-                 "g %.2f/%.2f %%\n", sc.name, 100 * b.mean[0], 100 * b.max[0], 100 * b.mean[1], 100 * b.max[1],
-                 100 * b.mean[2], 100 * b.max[2]);
-        }
         if (bound_only) continue;
       }
       char key[1024];
