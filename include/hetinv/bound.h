@@ -30,10 +30,10 @@
  *
  * Costs: 2R tangent passes (a voxel crossing costs O(1) for one-hot
  * tangents, a splat O(K)) and R products ĴᵀWĴ of O(values·K²), parallel
- * over the context's threads; memory (t + 2)·values·K + R·K² doubles
- * (t: the tangent pass's tally slots, one per thread while they fit in
- * 4 GiB) plus 3·voxels·K for the pushed-forward tangents; the inversion
- * is O(K³) per replicate (jackknife).
+ * over the context's threads; memory 2·values·K + R·K² doubles, plus per
+ * thread K doubles for each value of one emitter, plus 3·voxels·K for the
+ * pushed-forward tangents; the inversion is O(K³) per replicate
+ * (jackknife).
  */
 #ifndef HETINV_BOUND_H
 #define HETINV_BOUND_H

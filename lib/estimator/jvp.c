@@ -18,7 +18,7 @@
 typedef struct tangent_pass {
   const hv_pass_t *pass;
   size_t T;
-  hv_tally_t *tallies;    /* one per tally slot (batches.h); values: count·T */
+  hv_tally_t *tallies;    /* one per tally slot (batches.h); values: the largest plan's, times T */
   hv_grad_tally_t *grads; /* one per slot: the score logs and running sums */
   double *total;              /* count·T: the caller's output, scaled at the end */
   double *mean_sum, *mean_sq; /* count·T each, only when standard errors are asked */
@@ -49,7 +49,7 @@ static void reduce_item(void *self, int64_t item, int slot) {
   int32_t e = pass->emitter_lo + (int32_t)(item / pass->batches);
   const hv_plan_t *plan = &pass->plans.plan[e];
   double n = hv_pass_batch_size(pass, (int32_t)(item % pass->batches));
-  for (int32_t i = 0; i < plan->range_count; ++i) {
+  for (int32_t i = 0; i < plan->range_count; ++i) { /* one range per row */
     const hv_row_target_t *row = &plan->rows[i];
     size_t end = i + 1 < plan->range_count ? plan->rows[i + 1].local : plan->value_count;
     const double *src = tally->values + row->local * f->T;
