@@ -24,6 +24,12 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " init=truth levels=%d", (int)sc->levels[sc->level_count - 1]);
   }
+  recon_scene_t defaults;
+  recon_scene_default(&defaults);
+  if (sc->minibatch != defaults.minibatch) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " minibatch=%d", (int)sc->minibatch);
+  }
 }
 
 static const char *const NAMES[3] = {"sigma_a", "sigma_s", "g"};

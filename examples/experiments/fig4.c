@@ -7,7 +7,7 @@
  * parameter and configuration.
  *
  *   hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]
- *               [--photons N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]
+ *               [--photons N] [--minibatch N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--init-truth]
  *
@@ -42,6 +42,11 @@
  * scene's photons per emitter) and --bound-replicates (default 4) set its
  * Monte Carlo budget.
  *
+ * --minibatch N sets the sources drawn per iteration (default 16); with
+ * --photons it trades sources against photons per source at a fixed
+ * number of paths per iteration, which tells the minibatch's sampling
+ * noise apart from each source's Monte Carlo noise.
+ *
  * --init-truth is a diagnostic: every cell's optimizer starts at its truth
  * and runs the finest level alone (same iterations and photons). A
  * recovery that stays near the truth says the default run's miss comes
@@ -62,7 +67,7 @@ static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]\n"
+          "                   [--photons N] [--minibatch N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--init-truth]\n",
           what);
@@ -74,7 +79,7 @@ static const char *const CONFIG_NAMES[5] = {"", "(1) pathlength, neighbours", "(
 
 /* The scene of configuration c and volume v. */
 static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid, int64_t iterations, int64_t photons,
-                       double scale, bool init_truth, const char *out) {
+                       int64_t minibatch, double scale, bool init_truth, const char *out) {
   recon_scene_default(sc);
   snprintf(sc->name, sizeof sc->name, "Fig. 4 %s, volume %d", CONFIG_NAMES[c], v + 1);
   sc->config = (recon_config_t)c;
@@ -114,6 +119,7 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
   }
   if (iterations > 0) sc->iterations = iterations;
   if (photons > 0) sc->photons = photons;
+  if (minibatch > 0) sc->minibatch = (int32_t)minibatch;
   for (int p = 0; p < 2; ++p) { /* σa and σs; g has no unit */
     sc->truth_lo[p] *= scale;
     sc->truth_hi[p] *= scale;
@@ -344,7 +350,7 @@ static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photon
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
   bool bound = false, bound_only = false, init_truth = false;
-  int64_t volumes = -1, iterations = -1, photons = -1, grid = -1, threads = -1;
+  int64_t volumes = -1, iterations = -1, photons = -1, minibatch = -1, grid = -1, threads = -1;
   int64_t bound_photons = -1, bound_replicates = 4;
   double scale = -1.0;
   const char *out = "out/fig4";
@@ -380,6 +386,9 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--photons") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &photons) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--minibatch") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 100000, &minibatch) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--grid") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 2, 256, &grid) < 0) return 2;
@@ -433,7 +442,7 @@ int main(int argc, char **argv) {
     if (!configs[c]) continue;
     for (int64_t v = 0; v < volumes; ++v) {
       recon_scene_t sc;
-      make_scene(&sc, full, c, (int)v, grid, iterations, photons, scale, init_truth, out);
+      make_scene(&sc, full, c, (int)v, grid, iterations, photons, minibatch, scale, init_truth, out);
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);

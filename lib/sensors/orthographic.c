@@ -14,6 +14,7 @@
 #include "sampling/sensor_internal.h"
 #include "transport/score.h"
 #include "transport/sensor_kind.h"
+#include "transport/walk.h"
 
 /* Russian roulette on specular chains. Every reflection multiplies a
  * chain's throughput by the face's Fresnel R (1.7 % at normal incidence

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "sampling/pathlength_internal.h"
+#include "transport/walk.h"
 
 void hv_jvp_path_begin(hv_jvp_state_t *st) {
   memset(st->run, 0, (size_t)st->tangents * sizeof(double));
@@ -47,26 +48,25 @@ static void add_extinction(const hv_jvp_state_t *st, int64_t k, double length, d
   for (int32_t t = 0; t < st->tangents; ++t) run[t] -= length * (a[t] + s[t]);
 }
 
+typedef struct extinction_visit {
+  const hv_jvp_state_t *st;
+  double *run;
+} extinction_visit_t;
+
+static inline void add_extinction_visit(void *user, int64_t k, double seg) {
+  const extinction_visit_t *x = user;
+  add_extinction(x->st, k, seg, x->run);
+}
+
 /* A straight segment split into voxels as hv_grad_apply_log splits it;
  * returns the voxel where it ends. */
 static int64_t add_ray(const hv_jvp_state_t *st, const hv_log_entry_t *e, double *run) {
-  const hv_grid_t *grid = st->grid;
   hv_ray_t r;
   memcpy(r.p, e->u.ray.p, sizeof r.p);
   memcpy(r.d, e->u.ray.d, sizeof r.d);
-  hv_ray_locate(grid, &r);
-  hv_dda_t s;
-  hv_dda_init(grid, &r, &s);
-  hetinv_face_t face;
-  double length = e->u.ray.length;
-  for (double t = 0.0; t < length;) {
-    int a = hv_dda_axis(&s);
-    double end = s.t_next[a] < length ? s.t_next[a] : length;
-    add_extinction(st, r.k, end - t, run);
-    t = end;
-    if (t >= length || !hv_dda_advance(grid, &r, &s, a, t, &face)) break;
-  }
-  return r.k;
+  hv_ray_locate(st->grid, &r);
+  extinction_visit_t x = {st, run};
+  return hv_walk_segment(st->grid, &r, e->u.ray.length, add_extinction_visit, &x);
 }
 
 /* Adds the entries of `log` not yet summed to run. */

@@ -14,6 +14,7 @@
 #include <stdint.h>
 
 #include "transport/grid.h"
+#include "transport/path_log.h"
 
 typedef struct hv_jvp_state {
   const hv_grid_t *grid;

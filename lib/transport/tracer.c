@@ -8,6 +8,17 @@
 #include "medium/phase.h"
 #include "sampling/emitter_internal.h"
 #include "transport/sensor_kind.h"
+#include "transport/walk.h"
+
+typedef struct extinction_visit {
+  hv_grad_tally_t *gt;
+  double w;
+} extinction_visit_t;
+
+static inline void add_extinction_visit(void *user, int64_t k, double seg) {
+  const extinction_visit_t *x = user;
+  hv_grad_add_extinction(x->gt, k, -seg * x->w);
+}
 
 /* -length·w to σa and σs of every voxel the straight segment crosses;
  * returns the voxel where it ends. */
@@ -17,17 +28,8 @@ static int64_t add_ray(hv_grad_tally_t *gt, const hv_grid_t *grid, const double 
   memcpy(r.p, p, sizeof r.p);
   memcpy(r.d, d, sizeof r.d);
   hv_ray_locate(grid, &r);
-  hv_dda_t s;
-  hv_dda_init(grid, &r, &s);
-  hetinv_face_t face;
-  for (double t = 0.0; t < length;) {
-    int a = hv_dda_axis(&s);
-    double end = s.t_next[a] < length ? s.t_next[a] : length;
-    hv_grad_add_extinction(gt, r.k, -(end - t) * w);
-    t = end;
-    if (t >= length || !hv_dda_advance(grid, &r, &s, a, t, &face)) break;
-  }
-  return r.k;
+  extinction_visit_t x = {gt, w};
+  return hv_walk_segment(grid, &r, length, add_extinction_visit, &x);
 }
 
 void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path_log_t *log) {

@@ -9,6 +9,7 @@
 #include "core/exponential.h"
 #include "core/rng.h"
 #include "transport/grid.h"
+#include "transport/path_log.h"
 #include "transport/path_jvp.h"
 #include "transport/plan.h"
 

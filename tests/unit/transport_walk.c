@@ -1,4 +1,4 @@
-/* Exact regular tracking (lib/transport/grid.h) against a brute-force
+/* Exact regular tracking (lib/transport/walk.h) against a brute-force
  * reference: every face crossing of a straight ray found axis by axis and
  * sorted. A free flight must end where the reference's optical depth
  * reaches the sampled depth, and log one segment per voxel crossed, of the
@@ -16,6 +16,7 @@
 #include "medium/medium_internal.h"
 #include "sampling/geometry.h"
 #include "transport/grid.h"
+#include "transport/walk.h"
 
 enum { NX = 7, NY = 5, NZ = 6, RAYS = 4000, MAX_SEG = 64 };
 
