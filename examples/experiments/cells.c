@@ -30,6 +30,10 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " minibatch=%d", (int)sc->minibatch);
   }
+  if (sc->epsilon != defaults.epsilon) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " epsilon=%.17g", sc->epsilon);
+  }
 }
 
 static const char *const NAMES[3] = {"sigma_a", "sigma_s", "g"};

@@ -7,9 +7,10 @@
  * parameter and configuration.
  *
  *   hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]
- *               [--photons N] [--minibatch N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]
+ *               [--photons N] [--minibatch N] [--epsilon E] [--grid N] [--scale S]
+ *               [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
- *               [--bound-replicates N] [--init-truth]
+ *               [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]
  *
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
  * cube, 6 × 6 section, one 0.1 mm imaging pixel and bin per voxel; 2
@@ -45,7 +46,17 @@
  * --minibatch N sets the sources drawn per iteration (default 16); with
  * --photons it trades sources against photons per source at a fixed
  * number of paths per iteration, which tells the minibatch's sampling
- * noise apart from each source's Monte Carlo noise.
+ * noise apart from each source's Monte Carlo noise. --epsilon E sets
+ * ADADELTA's ε (default 0.003), the scale of its steps once the gradient
+ * is mostly noise.
+ *
+ * --fit-check is the data-or-optimizer test by the loss: for each cell it
+ * renders the truth and the stored recovery at --fit-photons per source
+ * (default 20000, the same photons for both) and prints the misfit of the
+ * data at each (unbiased: the renders' own variance taken out) with its
+ * standard error. A recovery that fits the data better than the truth
+ * is as far as these data can lead any optimizer; one that fits worse
+ * was left short of the data's optimum by the optimizer.
  *
  * --init-truth is a diagnostic: every cell's optimizer starts at its truth
  * and runs the finest level alone (same iterations and photons). A
@@ -60,6 +71,7 @@
 #include <string.h>
 
 #include "cells.h"
+#include "fit_check.h"
 #include "outdir.h"
 #include "recon.h"
 
@@ -67,9 +79,10 @@ static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--minibatch N] [--grid N] [--scale S] [--threads N] [-o DIR] [--quiet]\n"
+          "                   [--photons N] [--minibatch N] [--epsilon E] [--grid N] [--scale S]\n"
+          "                   [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
-          "                   [--bound-replicates N] [--init-truth]\n",
+          "                   [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]\n",
           what);
   return 2;
 }
@@ -79,7 +92,7 @@ static const char *const CONFIG_NAMES[5] = {"", "(1) pathlength, neighbours", "(
 
 /* The scene of configuration c and volume v. */
 static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid, int64_t iterations, int64_t photons,
-                       int64_t minibatch, double scale, bool init_truth, const char *out) {
+                       int64_t minibatch, double epsilon, double scale, bool init_truth, const char *out) {
   recon_scene_default(sc);
   snprintf(sc->name, sizeof sc->name, "Fig. 4 %s, volume %d", CONFIG_NAMES[c], v + 1);
   sc->config = (recon_config_t)c;
@@ -120,6 +133,7 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
   if (iterations > 0) sc->iterations = iterations;
   if (photons > 0) sc->photons = photons;
   if (minibatch > 0) sc->minibatch = (int32_t)minibatch;
+  if (epsilon > 0.0) sc->epsilon = epsilon;
   for (int p = 0; p < 2; ++p) { /* σa and σs; g has no unit */
     sc->truth_lo[p] *= scale;
     sc->truth_hi[p] *= scale;
@@ -197,6 +211,27 @@ static int run_cell(const recon_scene_t *sc, int64_t threads, bool quiet, experi
   recon_imaging_release(&im);
   hetinv_context_destroy(&ctx);
   return r == HETINV_SUCCESS ? 0 : 1;
+}
+
+/* The loss at the truth and at a cell's recovery (fit_check.h), and which
+ * one the data prefer. */
+static int print_fit_check(const recon_scene_t *sc, int64_t threads, int64_t photons) {
+  fit_check_t f;
+  char msg[1400];
+  if (fit_check_run(sc, threads, photons, &f, msg, sizeof msg) != 0) {
+    fprintf(stderr, "hetinv-fig4: %s\n", msg);
+    return 1;
+  }
+  double diff = f.recovery - f.truth;
+  const char *verdict = fabs(diff) < 2.0 * f.difference_se ? "no difference at this precision"
+                        : diff < 0.0 ? "the data prefer the recovery: what limits it is the data"
+                                     : "the truth fits better: what limits it is the optimizer";
+  printf("%s: misfit at the truth %.6g +- %.2g (expected %.6g from the data's noise, %zu values), "
+         "at the recovery %.6g +- %.2g; recovery - truth %+.6g +- %.2g: %s (%lld photons per source, %.0f s)\n",
+         sc->name, f.truth, f.truth_se, f.expected, f.values, f.recovery, f.recovery_se, diff, f.difference_se,
+         verdict, (long long)photons, f.seconds);
+  fflush(stdout);
+  return 0;
 }
 
 /* The table of errors (mean over volumes of the voxel mean / max over
@@ -349,10 +384,10 @@ static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photon
 
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
-  bool bound = false, bound_only = false, init_truth = false;
+  bool bound = false, bound_only = false, init_truth = false, fit = false;
   int64_t volumes = -1, iterations = -1, photons = -1, minibatch = -1, grid = -1, threads = -1;
-  int64_t bound_photons = -1, bound_replicates = 4;
-  double scale = -1.0;
+  int64_t bound_photons = -1, bound_replicates = 4, fit_photons = 20000;
+  double scale = -1.0, epsilon = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -365,6 +400,11 @@ int main(int argc, char **argv) {
       write_scenes = true;
     } else if (strcmp(a, "--init-truth") == 0) {
       init_truth = true;
+    } else if (strcmp(a, "--fit-check") == 0) {
+      fit = true;
+    } else if (strcmp(a, "--fit-photons") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, INT64_C(1) << 40, &fit_photons) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--bound") == 0) {
       bound = true;
     } else if (strcmp(a, "--bound-only") == 0) {
@@ -402,6 +442,15 @@ int main(int argc, char **argv) {
         return usage(msg);
       }
       ++i;
+    } else if (strcmp(a, "--epsilon") == 0) {
+      char *end = NULL;
+      epsilon = next ? strtod(next, &end) : -1.0;
+      if (next == NULL || end == next || *end != '\0' || !(epsilon > 0.0 && epsilon <= 1.0)) {
+        char msg[300];
+        snprintf(msg, sizeof msg, "--epsilon: '%s' is not a number in (0, 1]", next ? next : "");
+        return usage(msg);
+      }
+      ++i;
     } else if (strcmp(a, "--threads") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &threads) < 0) return 2;
       ++i;
@@ -428,6 +477,7 @@ int main(int argc, char **argv) {
   }
   if (bound && bound_only) return usage("--bound and --bound-only exclude each other");
   if (write_scenes && (bound || bound_only)) return usage("--write-scenes writes set-ups; it computes no bound");
+  if (fit && (write_scenes || bound_only)) return usage("--fit-check needs the cells' recoveries");
   if (volumes < 0) volumes = full ? 5 : 2;
   if (scale < 0.0) scale = full ? 0.1 : 1.0;
   /* Before any simulation: a folder we can write, locked for this run
@@ -442,7 +492,7 @@ int main(int argc, char **argv) {
     if (!configs[c]) continue;
     for (int64_t v = 0; v < volumes; ++v) {
       recon_scene_t sc;
-      make_scene(&sc, full, c, (int)v, grid, iterations, photons, minibatch, scale, init_truth, out);
+      make_scene(&sc, full, c, (int)v, grid, iterations, photons, minibatch, epsilon, scale, init_truth, out);
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);
@@ -493,6 +543,7 @@ int main(int argc, char **argv) {
                100 * e->max[2], cell.seconds, reused ? ", stored by an earlier run" : "");
         fflush(stdout);
       }
+      if (fit && print_fit_check(&sc, threads, fit_photons) != 0) return 1;
     }
   }
   if (write_scenes) {

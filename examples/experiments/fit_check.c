@@ -1,0 +1,111 @@
+/* The data-or-optimizer test by the loss (fit_check.h).
+ *
+ * A recovery that misses the truth either fits the data better than the
+ * truth does (then the data, at their noise, prefer it: no optimizer can do
+ * better on this loss) or worse (then the optimizer stopped short of the
+ * data's optimum). The local bound cannot tell these apart where the
+ * confusion is longer than its window; the loss can. */
+#include "fit_check.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+/* A stream no optimizer iteration or simulated acquisition uses. */
+#define FIT_CHECK_STREAM 60000
+
+/* Σ mask·w·((I − Ī)² − s²), s the render's standard error, and its
+ * standard error by the delta method (values taken as independent); each
+ * value's share of the variance goes to var_share. */
+static void misfit(const hetinv_measurements_t *set, const double *rendered, const double *se, double *sum,
+                   double *sum_se, double *var_share) {
+  size_t n = hetinv_measurements_value_count(set);
+  const double *data = hetinv_measurements_values(set), *w = hetinv_measurements_weights(set);
+  const uint8_t *mask = hetinv_measurements_mask(set);
+  double s = 0.0, var = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    var_share[i] = 0.0;
+    if (!mask[i] || !(w[i] > 0.0)) continue;
+    double r = rendered[i] - data[i], d = 2.0 * w[i] * r * se[i], q = w[i] * se[i] * se[i];
+    s += w[i] * (r * r - se[i] * se[i]);
+    var_share[i] = d * d + 2.0 * q * q;
+    var += var_share[i];
+  }
+  *sum = s;
+  *sum_se = sqrt(var);
+}
+
+static hetinv_result_t read_recovery(hetinv_context_t *ctx, const recon_scene_t *sc, hetinv_medium_t **out,
+                                     char *msg, size_t msg_size) {
+  hetinv_result_t r = recon_medium_create(ctx, sc, out);
+  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
+    char path[1200];
+    snprintf(path, sizeof path, "%s/recovered_%s.vol", sc->output, hetinv_param_name(p));
+    r = hetinv_medium_read_vol(*out, p, path);
+    if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_medium_commit(*out);
+  if (r != HETINV_SUCCESS) hetinv_medium_destroy(out);
+  return r;
+}
+
+int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, fit_check_t *out, char *msg,
+                  size_t msg_size) {
+  *out = (fit_check_t){0};
+  double t0 = recon_now();
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.seed = sc->seed;
+  init.thread_count = threads >= 0 ? (int32_t)threads : sc->threads;
+  hetinv_context_t *ctx = NULL;
+  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) {
+    snprintf(msg, msg_size, "%s: cannot create a context", sc->name);
+    return -1;
+  }
+  hetinv_medium_t *truth = NULL, *rec = NULL;
+  hetinv_estimator_t *est = NULL;
+  recon_imaging_t im = {0};
+  double *buf = NULL;
+  msg[0] = '\0';
+  hetinv_result_t r = recon_truth_create(ctx, sc, &truth);
+  if (r == HETINV_SUCCESS) r = recon_imaging_build(ctx, truth, sc, &im);
+  if (r == HETINV_SUCCESS) r = recon_simulate(ctx, sc, truth, &im);
+  if (r == HETINV_SUCCESS) r = read_recovery(ctx, sc, &rec, msg, msg_size);
+  size_t n = r == HETINV_SUCCESS ? hetinv_measurements_value_count(im.set) : 0;
+  if (r == HETINV_SUCCESS) {
+    buf = malloc(6 * (n ? n : 1) * sizeof *buf);
+    if (buf == NULL) r = HETINV_ERROR_OUT_OF_MEMORY;
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)photons);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, FIT_CHECK_STREAM);
+  double *it = buf, *st = buf + n, *ir = buf + 2 * n, *sr = buf + 3 * n, *pt = buf + 4 * n, *pr = buf + 5 * n;
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im.set, it, st, NULL, n);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, rec, im.set, ir, sr, NULL, n);
+  if (r == HETINV_SUCCESS) {
+    misfit(im.set, it, st, &out->truth, &out->truth_se, pt);
+    misfit(im.set, ir, sr, &out->recovery, &out->recovery_se, pr);
+    /* The difference's error without the two renders' covariance, which
+     * is positive (they share photons): an upper bound. */
+    const double *w = hetinv_measurements_weights(im.set), *se = hetinv_measurements_std_errors(im.set);
+    const uint8_t *mask = hetinv_measurements_mask(im.set);
+    double var = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      if (!mask[i] || !(w[i] > 0.0)) continue;
+      var += pt[i] + pr[i];
+      out->expected += w[i] * se[i] * se[i];
+      ++out->values;
+    }
+    out->difference_se = sqrt(var);
+  }
+  if (r != HETINV_SUCCESS && msg[0] == '\0') {
+    snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(ctx));
+  }
+  out->seconds = recon_now() - t0;
+  free(buf);
+  hetinv_estimator_destroy(&est);
+  hetinv_medium_destroy(&rec);
+  hetinv_medium_destroy(&truth);
+  recon_imaging_release(&im);
+  hetinv_context_destroy(&ctx);
+  return r == HETINV_SUCCESS ? 0 : -1;
+}

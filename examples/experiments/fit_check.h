@@ -1,0 +1,31 @@
+/* The data-or-optimizer test by the loss itself: is the recovery a better
+ * fit to the data than the truth? */
+#ifndef HETINV_EXPERIMENT_FIT_CHECK_H
+#define HETINV_EXPERIMENT_FIT_CHECK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "recon.h"
+
+/* Misfits Σ mask·w·(I(x) − Ī)² of the data Ī with the noise-free model I at
+ * x = the truth and x = the recovery, each estimated without bias from a
+ * render (the render's own variance taken out of every term) with its
+ * standard error; both renders use the same photons (common random
+ * numbers), so their difference is known more precisely than either. */
+typedef struct fit_check {
+  double truth, truth_se;       /* misfit at the truth */
+  double recovery, recovery_se; /* misfit at the recovery */
+  double difference_se;         /* of recovery − truth */
+  double expected;              /* E[misfit at the truth] from the data's noise: Σ mask·w·σ² */
+  size_t values;                /* values in the loss (mask set, weight > 0) */
+  double seconds;
+} fit_check_t;
+
+/* Simulates the scene's data (as its cell did), reads the recovery from
+ * <scene->output>/recovered_<param>.vol and renders both at `photons` per
+ * emitter. 0, or -1 with "<what or file>: <reason>" in msg. */
+int fit_check_run(const recon_scene_t *scene, int64_t threads, int64_t photons, fit_check_t *out, char *msg,
+                  size_t msg_size);
+
+#endif
