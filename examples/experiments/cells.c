@@ -30,6 +30,10 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " minibatch=%d", (int)sc->minibatch);
   }
+  if (sc->min_snr != defaults.min_snr) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " min_snr=%.17g", sc->min_snr);
+  }
   if (sc->epsilon != defaults.epsilon) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " epsilon=%.17g", sc->epsilon);

@@ -8,7 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--grid N] [--scale S]
- *               [--threads N] [-o DIR] [--quiet]
+ *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]
  *
@@ -48,7 +48,9 @@
  * number of paths per iteration, which tells the minibatch's sampling
  * noise apart from each source's Monte Carlo noise. --epsilon E sets
  * ADADELTA's ε (default 0.003), the scale of its steps once the gradient
- * is mostly noise.
+ * is mostly noise. --min-snr S leaves out of the loss and the bound every
+ * value whose standard error exceeds value/S (acquisition.min_snr of
+ * hetinv-reconstruct).
  *
  * --fit-check is the data-or-optimizer test by the loss: for each cell it
  * renders the truth and the stored recovery at --fit-photons per source
@@ -80,7 +82,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--grid N] [--scale S]\n"
-          "                   [--threads N] [-o DIR] [--quiet]\n"
+          "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]\n",
           what);
@@ -92,7 +94,8 @@ static const char *const CONFIG_NAMES[5] = {"", "(1) pathlength, neighbours", "(
 
 /* The scene of configuration c and volume v. */
 static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid, int64_t iterations, int64_t photons,
-                       int64_t minibatch, double epsilon, double scale, bool init_truth, const char *out) {
+                       int64_t minibatch, double epsilon, double min_snr, double scale, bool init_truth,
+                       const char *out) {
   recon_scene_default(sc);
   snprintf(sc->name, sizeof sc->name, "Fig. 4 %s, volume %d", CONFIG_NAMES[c], v + 1);
   sc->config = (recon_config_t)c;
@@ -134,6 +137,7 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
   if (photons > 0) sc->photons = photons;
   if (minibatch > 0) sc->minibatch = (int32_t)minibatch;
   if (epsilon > 0.0) sc->epsilon = epsilon;
+  if (min_snr >= 0.0) sc->min_snr = min_snr;
   for (int p = 0; p < 2; ++p) { /* σa and σs; g has no unit */
     sc->truth_lo[p] *= scale;
     sc->truth_hi[p] *= scale;
@@ -387,7 +391,7 @@ int main(int argc, char **argv) {
   bool bound = false, bound_only = false, init_truth = false, fit = false;
   int64_t volumes = -1, iterations = -1, photons = -1, minibatch = -1, grid = -1, threads = -1;
   int64_t bound_photons = -1, bound_replicates = 4, fit_photons = 20000;
-  double scale = -1.0, epsilon = -1.0;
+  double scale = -1.0, epsilon = -1.0, min_snr = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -451,6 +455,15 @@ int main(int argc, char **argv) {
         return usage(msg);
       }
       ++i;
+    } else if (strcmp(a, "--min-snr") == 0) {
+      char *end = NULL;
+      min_snr = next ? strtod(next, &end) : -1.0;
+      if (next == NULL || end == next || *end != '\0' || !(min_snr >= 0.0 && min_snr <= 1e6)) {
+        char msg[300];
+        snprintf(msg, sizeof msg, "--min-snr: '%s' is not a number from 0 to 1e6", next ? next : "");
+        return usage(msg);
+      }
+      ++i;
     } else if (strcmp(a, "--threads") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &threads) < 0) return 2;
       ++i;
@@ -492,7 +505,8 @@ int main(int argc, char **argv) {
     if (!configs[c]) continue;
     for (int64_t v = 0; v < volumes; ++v) {
       recon_scene_t sc;
-      make_scene(&sc, full, c, (int)v, grid, iterations, photons, minibatch, epsilon, scale, init_truth, out);
+      make_scene(&sc, full, c, (int)v, grid, iterations, photons, minibatch, epsilon, min_snr, scale,
+                 init_truth, out);
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);

@@ -22,6 +22,18 @@ void recon_set_weights(int weighting, const double *v, const double *se, double 
   }
 }
 
+size_t recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, size_t n, double min_snr) {
+  size_t cleared = 0;
+  if (!(min_snr > 0.0)) return 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (mask[i] && v[i] < min_snr * se[i]) {
+      mask[i] = 0;
+      ++cleared;
+    }
+  }
+  return cleared;
+}
+
 hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
                                const hetinv_medium_t *truth, recon_imaging_t *im) {
   size_t n = hetinv_measurements_value_count(im->set);
@@ -74,6 +86,7 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
     }
   }
   if (r == HETINV_SUCCESS) {
+    recon_mask_unresolved(v, se, mask, n, sc->min_snr);
     recon_set_weights(sc->weighting, v, se, w, n);
     r = hetinv_measurements_set_values(im->set, v, se, n);
   }

@@ -118,6 +118,7 @@ static int read_values(hetinv_context_t *ctx, recon_scene_t *sc, const scene_t *
   hetinv_result_t r = HETINV_SUCCESS;
   if (status == 0) {
     memset(mask, 1, n);
+    recon_mask_unresolved(v, se, mask, n, sc->min_snr);
     recon_set_weights(sc->weighting, v, se, w, n);
     r = hetinv_measurements_set_values(scene->set, v, se, n);
     if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(scene->set, w, n);

@@ -132,7 +132,9 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   fprintf(f, "{\n  \"name\": ");
   put_string(f, name);
   fprintf(f, ",\n  \"acquisition\": {\"render_scene\": \"render.json\", \"measured\": \"data\", "
-             "\"std_errors\": \"data\", \"weighting\": \"%s\"},\n", recon_weighting_names[sc->weighting]);
+             "\"std_errors\": \"data\", \"weighting\": \"%s\", \"min_snr\": ", recon_weighting_names[sc->weighting]);
+  put_number(f, sc->min_snr);
+  fprintf(f, "},\n");
   fprintf(f, "  \"truth\": {\"vol\": {\"sigma_a\": \"truth_sigma_a.vol\", \"sigma_s\": \"truth_sigma_s.vol\", "
              "\"g\": \"truth_g.vol\"}},\n");
   fprintf(f, "  \"estimator\": {\"photons\": %lld, \"batches\": %d},\n", (long long)sc->photons, (int)sc->batches);

@@ -68,6 +68,12 @@ typedef struct recon_scene {
   bool noise;
   hetinv_noise_model_t noise_model;
   int weighting;
+  /* Values whose standard error exceeds value/min_snr are left out of the
+   * loss and the bound (0: none). The simulated data are a Monte Carlo
+   * render: a value few photons reach has a heavy-tailed error that its
+   * batch means underestimate (docs/results/fig4.md), and a 1/σ² weight then
+   * lets a handful of such values rule the loss and its gradient. */
+  double min_snr;
   char measurements[1024];      /* load these (EXR) instead of simulating; "" = simulate */
   /* Acquisition from files (measured.c): a render scene (its emitters,
    * sensors, pathlengths and rows; its medium for the grid, box and η
@@ -218,6 +224,10 @@ int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *scene, const 
 /* Loss weights 1/s² from values and standard errors: s = the standard
  * error (variance), max(|value|, 10⁻³·peak) (relative) or 1 (uniform). */
 void recon_set_weights(int weighting, const double *v, const double *se, double *w, size_t n);
+
+/* Clears mask[i] where v[i] < min_snr·se[i] (min_snr > 0); returns how many
+ * set values it cleared. */
+size_t recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, size_t n, double min_snr);
 
 /* Runs the scene's schedule from its uniform initial medium, writing
  * <output>/checkpoint.bin as it goes and <output>/loss.csv at the end. With

@@ -57,6 +57,7 @@ void recon_scene_default(recon_scene_t *sc) {
   sc->weighting = RECON_WEIGHT_VARIANCE;
   sc->gain_mode = HETINV_GAIN_NONE;
   sc->saturation = INFINITY;
+  sc->min_snr = 0.0;
   sc->truth_photons = 30000;
   sc->photons = 2000;
   sc->batches = 8;
@@ -288,8 +289,12 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (got <= 0) return got;
   static const char *const allowed[] = {"noise", "full_well", "read_noise", "seed", "weighting",
                                         "photons", "measurements", "render_scene", "measured",
-                                        "std_errors", "gain", "saturation", NULL};
+                                        "std_errors", "gain", "saturation", "min_snr", NULL};
   if (jr_check_object(jr, o, "acquisition", allowed) < 0) return -1;
+  if (jr_number(jr, o, "acquisition", "min_snr", JR_OPTIONAL, &sc->min_snr) < 0) return -1;
+  if (!(sc->min_snr >= 0.0 && sc->min_snr <= 1e6)) {
+    return jr_fail(jr, "acquisition.min_snr", "is %g; expected a number from 0 to 1e6", sc->min_snr);
+  }
   if (jr_get(o, "render_scene") != NULL) return read_files(jr, o, sc);
   static const char *const files_only[] = {"measured", "std_errors", "gain", "saturation", NULL};
   for (int k = 0; files_only[k]; ++k) {
