@@ -45,7 +45,7 @@
 static void print_usage(FILE *f) {
   fprintf(f,
           "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
-          "                   [--threads N] [--quiet] [--write-scene]\n"
+          "                   [--threads N] [--min-snr S] [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
           "novel view and light.\n"
@@ -57,6 +57,8 @@ static void print_usage(FILE *f) {
           "  --photons N     photons per emitter of the optimiser's estimator; the\n"
           "                  novel view uses %d times as many\n"
           "  --threads N     threads (0 = all cores; default)\n"
+          "  --min-snr S     leave out values whose standard error exceeds value/S\n"
+          "                  (acquisition.min_snr; default 0: none)\n"
           "  --quiet         no progress line\n"
           "  --write-scene   write the set-up as a render scene, the truth and a\n"
           "                  reconstruction scene from the rendered files, and stop\n",
@@ -274,6 +276,7 @@ int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scene = false;
   const char *out_dir = NULL;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
+  double min_snr = -1.0;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
     const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -298,6 +301,15 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--threads") == 0) {
       ++i;
       if (recon_parse_count(PROG, a, v, 0, 4096, &threads) < 0) return 2;
+    } else if (strcmp(a, "--min-snr") == 0) {
+      char *end = NULL;
+      min_snr = v ? strtod(v, &end) : -1.0;
+      if (v == NULL || end == v || *end != '\0' || !(min_snr >= 0.0 && min_snr <= 1e6)) {
+        char msg[300];
+        snprintf(msg, sizeof msg, "--min-snr: '%s' is not a number from 0 to 1e6", v ? v : "");
+        return usage(msg);
+      }
+      ++i;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
       print_usage(stdout);
       return 0;
@@ -313,6 +325,7 @@ int main(int argc, char **argv) {
   if (iterations > 0) sc.iterations = iterations;
   if (photons > 0) sc.photons = photons;
   if (threads >= 0) sc.threads = (int32_t)threads;
+  if (min_snr >= 0.0) sc.min_snr = min_snr;
   char msg[1024];
   if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
     fprintf(stderr, PROG ": %s\n", msg);
