@@ -30,7 +30,8 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " minibatch=%d", (int)sc->minibatch);
   }
-  if (sc->min_snr != defaults.min_snr) {
+  /* Cells stored before min_snr existed left nothing out: min_snr 0. */
+  if (sc->min_snr != 0.0) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " min_snr=%.17g", sc->min_snr);
   }

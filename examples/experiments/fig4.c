@@ -50,7 +50,7 @@
  * ADADELTA's ε (default 0.003), the scale of its steps once the gradient
  * is mostly noise. --min-snr S leaves out of the loss and the bound every
  * value whose standard error exceeds value/S (acquisition.min_snr of
- * hetinv-reconstruct).
+ * hetinv-reconstruct; default 3, 0 keeps every value).
  *
  * --fit-check is the data-or-optimizer test by the loss: for each cell it
  * renders the truth and the stored recovery at --fit-photons per source

@@ -58,7 +58,7 @@ static void print_usage(FILE *f) {
           "                  novel view uses %d times as many\n"
           "  --threads N     threads (0 = all cores; default)\n"
           "  --min-snr S     leave out values whose standard error exceeds value/S\n"
-          "                  (acquisition.min_snr; default 0: none)\n"
+          "                  (acquisition.min_snr; default 3, 0 keeps every value)\n"
           "  --quiet         no progress line\n"
           "  --write-scene   write the set-up as a render scene, the truth and a\n"
           "                  reconstruction scene from the rendered files, and stop\n",
