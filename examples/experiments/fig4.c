@@ -438,31 +438,13 @@ int main(int argc, char **argv) {
       if (recon_parse_count("hetinv-fig4", a, next, 2, 256, &grid) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--scale") == 0) {
-      char *end = NULL;
-      scale = next ? strtod(next, &end) : -1.0;
-      if (next == NULL || end == next || *end != '\0' || !(scale >= 1e-3 && scale <= 1e3)) {
-        char msg[300];
-        snprintf(msg, sizeof msg, "--scale: '%s' is not a number from 0.001 to 1000", next ? next : "");
-        return usage(msg);
-      }
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-3, 1e3, &scale) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--epsilon") == 0) {
-      char *end = NULL;
-      epsilon = next ? strtod(next, &end) : -1.0;
-      if (next == NULL || end == next || *end != '\0' || !(epsilon > 0.0 && epsilon <= 1.0)) {
-        char msg[300];
-        snprintf(msg, sizeof msg, "--epsilon: '%s' is not a number in (0, 1]", next ? next : "");
-        return usage(msg);
-      }
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &epsilon) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--min-snr") == 0) {
-      char *end = NULL;
-      min_snr = next ? strtod(next, &end) : -1.0;
-      if (next == NULL || end == next || *end != '\0' || !(min_snr >= 0.0 && min_snr <= 1e6)) {
-        char msg[300];
-        snprintf(msg, sizeof msg, "--min-snr: '%s' is not a number from 0 to 1e6", next ? next : "");
-        return usage(msg);
-      }
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &min_snr) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--threads") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &threads) < 0) return 2;

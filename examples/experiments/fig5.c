@@ -302,14 +302,8 @@ int main(int argc, char **argv) {
       ++i;
       if (recon_parse_count(PROG, a, v, 0, 4096, &threads) < 0) return 2;
     } else if (strcmp(a, "--min-snr") == 0) {
-      char *end = NULL;
-      min_snr = v ? strtod(v, &end) : -1.0;
-      if (v == NULL || end == v || *end != '\0' || !(min_snr >= 0.0 && min_snr <= 1e6)) {
-        char msg[300];
-        snprintf(msg, sizeof msg, "--min-snr: '%s' is not a number from 0 to 1e6", v ? v : "");
-        return usage(msg);
-      }
       ++i;
+      if (recon_parse_real(PROG, a, v, 0.0, 1e6, &min_snr) < 0) return 2;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
       print_usage(stdout);
       return 0;

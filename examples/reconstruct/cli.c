@@ -21,6 +21,17 @@ int recon_parse_count(const char *prog, const char *opt, const char *text, int64
   return 0;
 }
 
+int recon_parse_real(const char *prog, const char *opt, const char *text, double lo, double hi, double *out) {
+  char *end = NULL;
+  double v = text ? strtod(text, &end) : 0.0;
+  if (text == NULL || *text == '\0' || *end != '\0' || !(v >= lo && v <= hi)) {
+    fprintf(stderr, "%s: %s: '%s' is not a number from %g to %g\n", prog, opt, text ? text : "", lo, hi);
+    return -1;
+  }
+  *out = v;
+  return 0;
+}
+
 double recon_now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);

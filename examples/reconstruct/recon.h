@@ -275,6 +275,8 @@ int recon_text_commit(FILE *f, const char *tmp, const char *path);
  * the context's last error message (ctx may be NULL); returns 1. */
 int recon_parse_count(const char *prog, const char *opt, const char *text, int64_t lo, int64_t hi,
                       int64_t *out);
+/* The same for a real number in [lo, hi] (NaN is refused). */
+int recon_parse_real(const char *prog, const char *opt, const char *text, double lo, double hi, double *out);
 double recon_now(void);
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
 
