@@ -18,8 +18,9 @@
 /* Per value, the acquisition model's variance at the clean value:
  * (E·I + r²)/E² with the row's exposure E (the model's, or automatic as in
  * recon_simulate); mask 0 for rows no light reaches (automatic exposure
- * is undefined there and they carry no information). Without noise in the
- * scene the model is still what a camera would add. */
+ * is undefined there and they carry no information) and for values whose
+ * standard error exceeds value/min_snr (left out of the loss too). Without
+ * noise in the scene the model is still what a camera would add. */
 static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *sc,
                                     const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
                                     double *var, uint8_t *mask) {
@@ -61,7 +62,8 @@ static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *
       /* A noiseless camera (read noise 0) still counts photons: at least
        * one electron's variance keeps dark pixels finite. */
       var[off + i] = (e > 1.0 ? e : 1.0) / (exposure * exposure) + mc[off + i] * mc[off + i] * mc_scale;
-      mask[off + i] = set_mask[off + i];
+      /* As the loss: a value the data would not resolve is left out. */
+      mask[off + i] = set_mask[off + i] && !(clean[off + i] < sc->min_snr * sqrt(var[off + i]));
     }
   }
   hetinv_estimator_destroy(&est);
