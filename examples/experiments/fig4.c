@@ -14,7 +14,7 @@
  *
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
  * cube, 6 × 6 section, one 0.1 mm imaging pixel and bin per voxel; 2
- * volumes) ran in 12 min 19 s on two cores; --full is the paper's size
+ * volumes) ran in 224 s on two cores (latest session); --full is the paper's size
  * (10 mm cube, 25 × 25 section, 0.1 mm pixels and bins, 5 volumes).
  *
  * --scale S multiplies the σa and σs of the truth's range, the bounds and
