@@ -22,16 +22,11 @@ void recon_set_weights(int weighting, const double *v, const double *se, double 
   }
 }
 
-size_t recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, size_t n, double min_snr) {
-  size_t cleared = 0;
-  if (!(min_snr > 0.0)) return 0;
+void recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, size_t n, double min_snr) {
+  if (!(min_snr > 0.0)) return;
   for (size_t i = 0; i < n; ++i) {
-    if (mask[i] && v[i] < min_snr * se[i]) {
-      mask[i] = 0;
-      ++cleared;
-    }
+    if (v[i] < min_snr * se[i]) mask[i] = 0;
   }
-  return cleared;
 }
 
 hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,

@@ -225,9 +225,8 @@ int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *scene, const 
  * error (variance), max(|value|, 10⁻³·peak) (relative) or 1 (uniform). */
 void recon_set_weights(int weighting, const double *v, const double *se, double *w, size_t n);
 
-/* Clears mask[i] where v[i] < min_snr·se[i] (min_snr > 0); returns how many
- * set values it cleared. */
-size_t recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, size_t n, double min_snr);
+/* Clears mask[i] where v[i] < min_snr·se[i] (nothing if min_snr is 0). */
+void recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, size_t n, double min_snr);
 
 /* Runs the scene's schedule from its uniform initial medium, writing
  * <output>/checkpoint.bin as it goes and <output>/loss.csv at the end. With
