@@ -1,0 +1,93 @@
+/* Per-voxel misses of a cell, each set against its Cramér–Rao bound. */
+#include "verdict.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include <hetinv/hetinv.h>
+
+/* One parameter's .vol into a malloc'd array; its dims in d. */
+static float *read_vol(hetinv_context_t *ctx, const char *path, int32_t d[3], char *msg, size_t n) {
+  hetinv_vol_header_t h;
+  float *x = NULL;
+  if (hetinv_vol_read_header(ctx, path, &h) == HETINV_SUCCESS) {
+    size_t count = (size_t)h.dims[0] * (size_t)h.dims[1] * (size_t)h.dims[2];
+    if (h.channels != 1) {
+      snprintf(msg, n, "%s: %d channels, expected 1", path, (int)h.channels);
+      return NULL;
+    }
+    x = malloc(count * sizeof *x);
+    if (x == NULL) {
+      snprintf(msg, n, "%s: out of memory for %zu voxels", path, count);
+      return NULL;
+    }
+    if (hetinv_vol_read(ctx, path, &h, x, count) == HETINV_SUCCESS) {
+      for (int a = 0; a < 3; ++a) d[a] = h.dims[a];
+      return x;
+    }
+  }
+  snprintf(msg, n, "%s: %s", path, hetinv_context_last_error_message(ctx));
+  free(x);
+  return NULL;
+}
+
+static int add_param(hetinv_context_t *ctx, const char *dir, int p, hetinv_image_t *bound, bool local,
+                     experiment_verdict_t *v, char *msg, size_t n) {
+  const char *name = hetinv_param_name((hetinv_param_t)p);
+  char path[1200], channel[64];
+  int32_t dt[3], dr[3], w = 0, h = 0, c = -1;
+  snprintf(channel, sizeof channel, "%s_%s", local ? "bound_local" : "bound", name);
+  if (hetinv_image_find_channel(bound, channel, &c) != HETINV_SUCCESS) {
+    snprintf(msg, n, "%s/bound.exr: no channel %s", dir, channel);
+    return -1;
+  }
+  snprintf(path, sizeof path, "%s/truth_%s.vol", dir, name);
+  float *t = read_vol(ctx, path, dt, msg, n);
+  snprintf(path, sizeof path, "%s/recovered_%s.vol", dir, name);
+  float *r = t ? read_vol(ctx, path, dr, msg, n) : NULL;
+  int status = t && r ? 0 : -1;
+  hetinv_image_get_size(bound, &w, &h, NULL);
+  if (status == 0 && (dt[0] != dr[0] || dt[1] != dr[1] || dt[2] != dr[2] || w != dt[0] || h != dt[2])) {
+    snprintf(msg, n, "%s: truth %dx%dx%d, recovery %dx%dx%d, bound section %dx%d do not match", dir,
+             (int)dt[0], (int)dt[1], (int)dt[2], (int)dr[0], (int)dr[1], (int)dr[2], (int)w, (int)h);
+    status = -1;
+  }
+  const float *b = status == 0 ? hetinv_image_channel_data(bound, c) : NULL;
+  for (int32_t z = 0; status == 0 && z < dt[2]; ++z) {
+    for (int32_t x = 0; x < dt[0]; ++x) {
+      size_t k = ((size_t)z * (size_t)dt[1] + (size_t)(dt[1] / 2)) * (size_t)dt[0] + (size_t)x;
+      double bk = b[(size_t)z * (size_t)w + (size_t)x];
+      if (!(bk > 0.0) || !isfinite(bk) || t[k] == 0.0f) continue;
+      double err = fabs((double)r[k] - (double)t[k]) / fabs((double)t[k]);
+      ++v->voxels[p];
+      v->over[p] += err > VERDICT_MAX_ERROR;
+      /* The allowance grows with the bound only where the bound exceeds 15 %. */
+      double allowed = bk > VERDICT_MAX_ERROR ? VERDICT_BOUND_FACTOR * bk : VERDICT_MAX_ERROR;
+      v->unexplained[p] += err > allowed;
+    }
+  }
+  free(t);
+  free(r);
+  return status;
+}
+
+int experiment_verdict_add(const char *dir, bool local, experiment_verdict_t *v, char *msg, size_t msg_size) {
+  hetinv_context_t *ctx = NULL;
+  hetinv_image_t *bound = NULL;
+  char path[1200];
+  snprintf(path, sizeof path, "%s/bound.exr", dir);
+  if (hetinv_context_create(NULL, &ctx) != HETINV_SUCCESS) {
+    snprintf(msg, msg_size, "cannot create a context");
+    return -1;
+  }
+  int status = 0;
+  if (hetinv_image_read_exr(ctx, path, &bound) != HETINV_SUCCESS) {
+    snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
+    status = -1;
+  }
+  for (int p = 0; status == 0 && p < 3; ++p) status = add_param(ctx, dir, p, bound, local, v, msg, msg_size);
+  hetinv_image_destroy(&bound);
+  hetinv_context_destroy(&ctx);
+  return status;
+}

@@ -1,0 +1,28 @@
+/* Where a cell misses the paper's per-voxel target (15 %), whether its
+ * data explain the miss: the issue's rule is "within 15 %, or within 1.5×
+ * the bound where the bound itself exceeds it". */
+#ifndef HETINV_EXPERIMENT_VERDICT_H
+#define HETINV_EXPERIMENT_VERDICT_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#define VERDICT_MEAN_ERROR 0.07  /* the paper's mean relative error */
+#define VERDICT_MAX_ERROR 0.15   /* the paper's max relative error */
+#define VERDICT_BOUND_FACTOR 1.5 /* a miss within this × its bound is the data's */
+
+typedef struct experiment_verdict {
+  size_t voxels[3];      /* compared: with a finite, positive bound */
+  size_t over[3];        /* of those, error > VERDICT_MAX_ERROR */
+  size_t unexplained[3]; /* of those, not within VERDICT_BOUND_FACTOR × a bound over 15 % */
+} experiment_verdict_t;
+
+/* Adds one cell's counts to *v: reads <dir>/truth_<p>.vol,
+ * <dir>/recovered_<p>.vol and the bound maps of <dir>/bound.exr (the full
+ * bound's channels, or with `local` the local bound's, a lower bound of
+ * the bound, so a miss it explains the full bound explains too). Voxels of
+ * the bound's section only (the middle of y). 0, or -1 with
+ * "<file>: <reason>" in msg. */
+int experiment_verdict_add(const char *dir, bool local, experiment_verdict_t *v, char *msg, size_t msg_size);
+
+#endif
