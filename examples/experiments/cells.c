@@ -24,9 +24,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " init=truth levels=%d", (int)sc->levels[sc->level_count - 1]);
   }
-  recon_scene_t defaults;
-  recon_scene_default(&defaults);
-  if (sc->minibatch != defaults.minibatch) {
+  /* Against the values of the key's first version, not today's defaults:
+   * a default that changes must change the key of the cells it computes. */
+  if (sc->minibatch != 16) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " minibatch=%d", (int)sc->minibatch);
   }
@@ -35,9 +35,19 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " min_snr=%.17g", sc->min_snr);
   }
-  if (sc->epsilon != defaults.epsilon) {
+  if (sc->epsilon != 0.003) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " epsilon=%.17g", sc->epsilon);
+  }
+  if (sc->coordinates != HETINV_COORDINATES_NATIVE) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " coordinates=%s", recon_coordinate_names[sc->coordinates]);
+  }
+  if (sc->method != HETINV_METHOD_ADADELTA || sc->decay != 0.95 || sc->coarse_fraction != 0.15 ||
+      sc->average_window != 0 || sc->learning_rate != 0.01) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " method=%d decay=%.17g coarse_fraction=%.17g average_window=%lld rate=%.17g",
+             (int)sc->method, sc->decay, sc->coarse_fraction, (long long)sc->average_window, sc->learning_rate);
   }
 }
 
