@@ -7,7 +7,7 @@
  * parameter and configuration.
  *
  *   hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]
- *               [--photons N] [--minibatch N] [--epsilon E] [--coordinates native|reduced]
+ *               [--photons N] [--minibatch N] [--epsilon E] [--decay D] [--coordinates native|reduced]
  *               [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -52,7 +52,8 @@
  * number of paths per iteration, which tells the minibatch's sampling
  * noise apart from each source's Monte Carlo noise. --epsilon E sets
  * ADADELTA's ε (default 0.003), the scale of its steps once the gradient
- * is mostly noise. --coordinates reduced moves each voxel's σs and g as
+ * is mostly noise, --decay D its running means' decay (default 0.95).
+ * --coordinates reduced moves each voxel's σs and g as
  * (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of the loss and the bound every
  * value whose standard error exceeds value/S (acquisition.min_snr of
  * hetinv-reconstruct; default 3, 0 keeps every value).
@@ -87,7 +88,7 @@ static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--minibatch N] [--epsilon E] [--coordinates native|reduced]\n"
+          "                   [--photons N] [--minibatch N] [--epsilon E] [--decay D] [--coordinates native|reduced]\n"
          "                   [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -436,6 +437,7 @@ int main(int argc, char **argv) {
   int64_t bound_photons = -1, bound_replicates = 4, fit_photons = 20000;
   double scale = -1.0, epsilon = -1.0, min_snr = -1.0;
   int coordinates = -1;
+  double decay = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -486,6 +488,9 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--epsilon") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &epsilon) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--decay") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &decay) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--coordinates") == 0) {
       if (next == NULL) return usage("--coordinates needs native or reduced");
@@ -549,6 +554,7 @@ int main(int argc, char **argv) {
       make_scene(&sc, full, c, (int)v, grid, iterations, photons, minibatch, epsilon, min_snr, scale,
                  init_truth, out);
       if (coordinates >= 0) sc.coordinates = coordinates;
+      if (decay >= 0.0) sc.decay = decay;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);
