@@ -99,11 +99,27 @@ int experiment_cell_store(const char *dir, const char *key, const experiment_cel
   return recon_text_commit(f, tmp, path);
 }
 
+/* What the data depend on: the truth, the imaging, the acquisition, the
+ * loss's weights and mask and the seed; none of the optimizer's settings. */
+static void data_key(const recon_scene_t *sc, char *key, size_t key_size) {
+  snprintf(key, key_size,
+           "data config=%d grid=%dx%dx%d size=%.17g eta=%.17g truth_seed=%llu noise_seed=%llu "
+           "truth=%.17g:%.17g,%.17g:%.17g,%.17g:%.17g pixels_per_voxel=%d bin_width=%.17g truth_photons=%lld "
+           "seed=%llu weighting=%d min_snr=%.17g",
+           (int)sc->config, (int)sc->grid[0], (int)sc->grid[1], (int)sc->grid[2], sc->size, sc->eta,
+           (unsigned long long)sc->truth_seed, (unsigned long long)sc->noise_model.seed, sc->truth_lo[0],
+           sc->truth_hi[0], sc->truth_lo[1], sc->truth_hi[1], sc->truth_lo[2], sc->truth_hi[2],
+           (int)sc->pixels_per_voxel, sc->bin_width, (long long)sc->truth_photons, (unsigned long long)sc->seed,
+           sc->weighting, sc->min_snr);
+}
+
+/* The bound is computed at the truth from the data alone, so runs of the
+ * optimizer with other settings share it. */
 void experiment_bound_key(const recon_scene_t *sc, int64_t photons, int32_t replicates, char *key,
                           size_t key_size) {
-  char cell[1024];
-  experiment_cell_key(sc, cell, sizeof cell);
-  snprintf(key, key_size, "%s bound_photons=%lld replicates=%d", cell, (long long)photons, (int)replicates);
+  char data[1024];
+  data_key(sc, data, sizeof data);
+  snprintf(key, key_size, "%s bound_photons=%lld replicates=%d", data, (long long)photons, (int)replicates);
 }
 
 /* A number as bound.csv writes it: NaN where the Fisher matrix was not

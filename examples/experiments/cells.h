@@ -37,7 +37,8 @@ typedef struct experiment_bound {
   double seconds;
 } experiment_bound_t;
 
-/* The cell's key and the bound's photons per emitter and replicates. */
+/* The data's key (the cell's without the optimizer's settings) and the
+ * bound's photons per emitter and replicates. */
 void experiment_bound_key(const recon_scene_t *scene, int64_t photons, int32_t replicates, char *key,
                           size_t key_size);
 
