@@ -7,15 +7,15 @@
  * parameter and configuration.
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
- *               [--photons N] [--minibatch N] [--epsilon E] [--decay D] [--coordinates native|reduced]
- *               [--grid N] [--scale S]
+ *               [--photons N] [--minibatch N] [--epsilon E] [--decay D]
+ *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]
  *
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
  * cube, 6 × 6 section, one 0.1 mm imaging pixel and bin per voxel; 2
- * volumes) ran in 224 s on two cores (latest session); --full is the paper's size
+ * volumes) ran in 224 s on two cores; --full is the paper's size
  * (10 mm cube, 25 × 25 section, 0.1 mm pixels and bins, 5 volumes; ADADELTA's
  * ε 0.0015). --volumes A-B runs volumes A to B only (side by side in
  * separate folders; copy the cell folders together to tabulate them).
@@ -53,12 +53,13 @@
  * --photons it trades sources against photons per source at a fixed
  * number of paths per iteration, which tells the minibatch's sampling
  * noise apart from each source's Monte Carlo noise. --epsilon E sets
- * ADADELTA's ε (default 0.003, 0.0015 with --full), the scale of its steps once the gradient
- * is mostly noise, --decay D its running means' decay (default 0.95).
- * --coordinates reduced moves each voxel's σs and g as
- * (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of the loss and the bound every
- * value whose standard error exceeds value/S (acquisition.min_snr of
- * hetinv-reconstruct; default 3, 0 keeps every value).
+ * ADADELTA's ε (default 0.003, 0.0015 with --full), the scale of its
+ * steps once the gradient is mostly noise; --decay D its running means'
+ * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
+ * as (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of
+ * the loss and the bound every value whose standard error exceeds
+ * value/S (acquisition.min_snr of hetinv-reconstruct; default 3, 0 keeps
+ * every value).
  *
  * --fit-check is the data-or-optimizer test by the loss: for each cell it
  * renders the truth and the stored recovery at --fit-photons per source
@@ -90,8 +91,8 @@ static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--minibatch N] [--epsilon E] [--decay D] [--coordinates native|reduced]\n"
-         "                   [--grid N] [--scale S]\n"
+          "                   [--photons N] [--minibatch N] [--epsilon E] [--decay D]\n"
+          "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]\n",
@@ -332,8 +333,8 @@ static int bound_table(const char *out, int64_t volumes, const bool configs[5], 
 
 /* The issue's target per configuration and parameter: the mean error
  * within 7 %, or within 1.5× the mean bound where that exceeds 7 %; every
- * voxel likewise against 15 % and its own bound (experiment_verdict_t). Printed and written
- * to DIR/fig4_target.csv. */
+ * voxel likewise against 15 % and its own bound (experiment_verdict_t).
+ * Printed and written to DIR/fig4_target.csv. */
 static int target_table(const char *out, const bool configs[5], const bool have[5], double error_mean[5][3],
                         double bound_mean[5][3], const experiment_verdict_t verdict[5]) {
   char path[1200], tmp[1220];
@@ -482,7 +483,7 @@ int main(int argc, char **argv) {
       if (dash != NULL && dash != next) {
         char *end = NULL;
         long a0 = strtol(next, &end, 10), b0 = end == dash ? strtol(dash + 1, &end, 10) : -1;
-        if (end == NULL || *end != '\0' || a0 < 1 || b0 < a0 || b0 > 100) {
+        if (*end != '\0' || a0 < 1 || b0 < a0 || b0 > 100) {
           char msg[300];
           snprintf(msg, sizeof msg, "--volumes: '%s' is neither a count nor a range A-B within 1-100", next);
           return usage(msg);
