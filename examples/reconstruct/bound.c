@@ -397,12 +397,25 @@ void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
   }
 }
 
+size_t recon_bound_entries(const hetinv_medium_t *m) {
+  return 3 * hetinv_medium_voxel_count(m);
+}
+
 int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *sc,
                     const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
                     int32_t replicates, bool root, bool at_recovery, recon_bound_t *b) {
   memset(b, 0, sizeof *b);
   if (hetinv_context_rank_count(ctx) > 1) {
     if (root) printf("%s: the bound is not computed with several MPI ranks\n", prog);
+    return 0;
+  }
+  /* Larger maps go on without a bound: the bound is a report beside the
+   * recovery, not a condition of it. */
+  if (recon_bound_entries(truth) > HETINV_FISHER_MAX_ENTRIES) {
+    if (root) {
+      printf("%s: no bound: %zu entries (3 per voxel); the dense Fisher matrix takes at most %d "
+             "(HETINV_FISHER_MAX_ENTRIES)\n", prog, recon_bound_entries(truth), HETINV_FISHER_MAX_ENTRIES);
+    }
     return 0;
   }
   if (recon_bound_compute(ctx, sc, truth, im, photons, replicates, b) != HETINV_SUCCESS) {

@@ -224,6 +224,12 @@ static int run(int argc, char **argv, outdir_t *dir) {
   recon_bound_t bound;
   memset(&bound, 0, sizeof bound);
   const int64_t bphotons = bound_photons > 0 ? bound_photons : sc.photons;
+  if (status == 0 && bound_only && truth != NULL && recon_bound_entries(truth) > HETINV_FISHER_MAX_ENTRIES) {
+    fprintf(stderr, "hetinv-reconstruct: --bound-only: the grid's %zu voxels make %zu entries; the dense Fisher "
+            "matrix takes at most %d (HETINV_FISHER_MAX_ENTRIES)\n", hetinv_medium_voxel_count(truth),
+            recon_bound_entries(truth), HETINV_FISHER_MAX_ENTRIES);
+    status = 1;
+  }
   if (status == 0 && !write_scene && truth != NULL && (bound_only || !no_bound)) {
     status = recon_bound_run("hetinv-reconstruct", ctx, &sc, truth, &im, bphotons, (int32_t)bound_replicates, root,
                              false, &bound);

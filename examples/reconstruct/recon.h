@@ -323,8 +323,11 @@ void recon_bound_print(const recon_bound_t *b, FILE *f);
  * <output>/bound_<param>.png. */
 hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *scene,
                                   const hetinv_medium_t *truth, const recon_bound_t *b);
+/* Entries of the bound's map (σa, σs and g of every voxel). */
+size_t recon_bound_entries(const hetinv_medium_t *medium);
 /* Computes, prints (root) and writes (root) the bound; with several MPI
- * ranks it is skipped (b->done false). 0, or 1 after a message. */
+ * ranks, or more than HETINV_FISHER_MAX_ENTRIES entries, it is skipped
+ * with a note (b->done false). 0, or 1 after a message. */
 int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *scene,
                     const hetinv_medium_t *at, recon_imaging_t *im, int64_t photons,
                     int32_t replicates, bool root, bool at_recovery, recon_bound_t *b);
