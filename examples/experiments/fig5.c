@@ -7,7 +7,15 @@
  * from an oblique direction on y_min, an orthographic camera on x_max).
  *
  *   hetinv-fig5 [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]
- *               [--threads N] [--quiet] [--write-scene]
+ *               [--threads N] [--min-snr S] [--lighting probes|cameras]
+ *               [--quiet] [--write-scene]
+ *
+ * --lighting says what "front-, side- and back-lighting" measures. probes
+ * (the default): every source is measured at its own pixel and its
+ * neighbours, so each of the three lit faces is seen in backscatter.
+ * cameras: one pathlength-resolved camera on z_max sees every source, so
+ * the sources on z_max front-light it, those on x_min side-light it and
+ * those on z_min back-light it (configuration pathlength_cameras).
  *
  * --write-scene writes the set-up as files instead (DIR/render.json,
  * truth_*.vol, reconstruct.json; hetinv-reconstruct --write-scene) for a
@@ -45,7 +53,8 @@
 static void print_usage(FILE *f) {
   fprintf(f,
           "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
-          "                   [--threads N] [--min-snr S] [--quiet] [--write-scene]\n"
+          "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
+          "                   [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
           "novel view and light.\n"
@@ -59,6 +68,8 @@ static void print_usage(FILE *f) {
           "  --threads N     threads (0 = all cores; default)\n"
           "  --min-snr S     leave out values whose standard error exceeds value/S\n"
           "                  (acquisition.min_snr; default 3, 0 keeps every value)\n"
+          "  --lighting L    probes: each source seen at its pixel and neighbours (default);\n"
+          "                  cameras: one pathlength-resolved camera on z_max sees them all\n"
           "  --quiet         no progress line\n"
           "  --write-scene   write the set-up as a render scene, the truth and a\n"
           "                  reconstruction scene from the rendered files, and stop\n",
@@ -72,7 +83,7 @@ static int usage(const char *what) {
 }
 
 /* The Fig. 5 scene on an n × n × n grid. */
-static void fig5_scene(recon_scene_t *sc, int32_t n, bool full) {
+static void fig5_scene(recon_scene_t *sc, int32_t n, bool full, bool cameras) {
   recon_scene_default(sc);
   snprintf(sc->name, sizeof sc->name, "%s Fig. 5 (smoke)", full ? "full" : "reduced");
   sc->size = 1.0;
@@ -93,6 +104,13 @@ static void fig5_scene(recon_scene_t *sc, int32_t n, bool full) {
   sc->angles[0] = 0.0;
   sc->source_faces = 1u << HETINV_FACE_Z_MIN | 1u << HETINV_FACE_X_MIN | 1u << HETINV_FACE_Z_MAX;
   sc->camera_faces = 0;
+  if (cameras) {
+    /* The paper's reading: one pathlength-resolved camera (on z_max); the
+     * sources on z_max front-light it, those on x_min side-light it and
+     * those on z_min back-light it. */
+    sc->config = RECON_PATHLENGTH_CAMERAS;
+    sc->camera_faces = 1u << HETINV_FACE_Z_MAX;
+  }
   /* Every boundary pixel a source (every 2nd in --full): with every 2nd
    * the reduced run had a quarter of the sources and 38-53 % mean errors. */
   sc->source_stride = full ? 2 : 1;
@@ -273,7 +291,7 @@ static int recover(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_
 }
 
 int main(int argc, char **argv) {
-  bool full = false, quiet = false, write_scene = false;
+  bool full = false, quiet = false, write_scene = false, cameras = false;
   const char *out_dir = NULL;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
   double min_snr = -1.0;
@@ -304,6 +322,11 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--min-snr") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 1e6, &min_snr) < 0) return 2;
+    } else if (strcmp(a, "--lighting") == 0) {
+      if (v == NULL || (strcmp(v, "probes") != 0 && strcmp(v, "cameras") != 0)) {
+        return usage("--lighting needs 'probes' or 'cameras'");
+      }
+      cameras = strcmp(argv[++i], "cameras") == 0;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
       print_usage(stdout);
       return 0;
@@ -314,7 +337,7 @@ int main(int argc, char **argv) {
     }
   }
   recon_scene_t sc;
-  fig5_scene(&sc, grid > 0 ? (int32_t)grid : full ? FULL_GRID : REDUCED_GRID, full);
+  fig5_scene(&sc, grid > 0 ? (int32_t)grid : full ? FULL_GRID : REDUCED_GRID, full, cameras);
   if (out_dir) snprintf(sc.output, sizeof sc.output, "%s", out_dir);
   if (iterations > 0) sc.iterations = iterations;
   if (photons > 0) sc.photons = photons;
@@ -349,9 +372,11 @@ int main(int argc, char **argv) {
     status = recon_fail(PROG, ctx, "imaging configuration");
   }
   if (status == 0) {
-    printf(PROG ": %s: %d x %d x %d voxels, eta %.2f, %d sources (front z_min, side x_min, back z_max), "
+    printf(PROG ": %s: %d x %d x %d voxels, eta %.2f, %d sources (%s), "
            "%d rows, %zu values, %lld iterations\n",
            sc.name, (int)sc.grid[0], (int)sc.grid[1], (int)sc.grid[2], sc.eta, (int)im.emitter_count,
+           cameras ? "on z_min, x_min and z_max, seen by a camera on z_max"
+                   : "on z_min, x_min and z_max, each seen at its own pixel and its neighbours",
            (int)hetinv_measurements_row_count(im.set), hetinv_measurements_value_count(im.set),
            (long long)sc.iterations);
     fflush(stdout);

@@ -124,6 +124,10 @@ static bool carries_source(int32_t i, int32_t count, int32_t stride, int32_t hal
   return count == 1 || i % stride == (half < count ? half : 0);
 }
 
+bool recon_has_cameras(const recon_scene_t *sc) {
+  return sc->config == RECON_STEADY || sc->config == RECON_COMBINED || sc->config == RECON_PATHLENGTH_CAMERAS;
+}
+
 double recon_bin_count(const recon_scene_t *sc) {
   return ceil(sc->max_pathlength / sc->bin_width - 1e-9);
 }
@@ -137,15 +141,15 @@ static double source_pixels(int32_t count, int32_t stride) {
 
 void recon_imaging_size(const recon_scene_t *sc, recon_imaging_size_t *size) {
   bool transient = sc->config != RECON_STEADY;
-  bool steady = sc->config == RECON_STEADY || sc->config == RECON_COMBINED;
+  bool probes = transient && sc->config != RECON_PATHLENGTH_CAMERAS; /* sensors at the source pixel */
   double bins = transient ? recon_bin_count(sc) : 0.0;
-  double cameras = 0.0, camera_pixels = 0.0; /* steady-state cameras, their pixels in all */
-  for (int f = 0; steady && f < 6; ++f) {
+  double cameras = 0.0, camera_pixels = 0.0; /* cameras, their values per emitter in all */
+  for (int f = 0; recon_has_cameras(sc) && f < 6; ++f) {
     if (!(sc->camera_faces & (1u << f))) continue;
     face_grid_t g;
     face_grid(sc, f, &g);
     cameras += 1.0;
-    camera_pixels += (double)g.count[0] * (double)g.count[1];
+    camera_pixels += (double)g.count[0] * (double)g.count[1] * (sc->config == RECON_PATHLENGTH_CAMERAS ? bins : 1.0);
   }
   int32_t normal = 0; /* orientations at normal incidence */
   for (int32_t a = 0; a < sc->angle_count; ++a) normal += sc->angles[a] == 0.0;
@@ -162,7 +166,7 @@ void recon_imaging_size(const recon_scene_t *sc, recon_imaging_size_t *size) {
     size->emitters += emitters;
     size->rows += emitters * cameras;
     size->values += emitters * camera_pixels;
-    if (transient) { /* one row per probed emitter, up to 3 pixels of all bins */
+    if (probes) { /* one row per probed emitter, up to 3 pixels of all bins */
       size->rows += sources * probed;
       size->values += sources * probed * 3.0 * bins;
     }
@@ -175,7 +179,8 @@ hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t
   hetinv_result_t r = hetinv_measurements_create(ctx, &im->set);
   if (r == HETINV_SUCCESS) r = hetinv_pathlength_create_steady(ctx, &im->steady);
   bool transient = sc->config != RECON_STEADY;
-  bool steady = sc->config == RECON_STEADY || sc->config == RECON_COMBINED;
+  bool probes = transient && sc->config != RECON_PATHLENGTH_CAMERAS; /* sensors at the source pixel */
+  bool camera_bins = sc->config == RECON_PATHLENGTH_CAMERAS;
   if (r == HETINV_SUCCESS && transient) {
     int32_t nb = (int32_t)ceil(sc->max_pathlength / sc->bin_width - 1e-9);
     double *centres = malloc((size_t)nb * sizeof *centres);
@@ -186,9 +191,9 @@ hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t
     im->bin_count = nb;
     im->bin_width = sc->bin_width;
   }
-  /* Steady-state cameras: one per camera face, the whole pixel grid. */
+  /* Cameras: one per camera face, the whole pixel grid. */
   int32_t cameras[6] = {-1, -1, -1, -1, -1, -1}; /* sensor index per face */
-  for (int f = 0; r == HETINV_SUCCESS && steady && f < 6; ++f) {
+  for (int f = 0; r == HETINV_SUCCESS && recon_has_cameras(sc) && f < 6; ++f) {
     if (!(sc->camera_faces & (1u << f))) continue;
     face_grid_t g;
     face_grid(sc, f, &g);
@@ -221,7 +226,7 @@ hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t
           int32_t ei = im->emitter_count;
           if (r == HETINV_SUCCESS) r = push_emitter(im, e, p, d);
           /* Pathlength rows: the source pixel (and its neighbours in (1), (4)). */
-          if (r == HETINV_SUCCESS && transient && (sc->config == RECON_PATHLENGTH_ANGLES || normal)) {
+          if (r == HETINV_SUCCESS && probes && (sc->config == RECON_PATHLENGTH_ANGLES || normal)) {
             int32_t first = il, count = 1;
             if (sc->config != RECON_PATHLENGTH_ANGLES) {
               first = il > 0 ? il - 1 : 0;
@@ -232,8 +237,8 @@ hetinv_result_t recon_imaging_build(hetinv_context_t *ctx, const hetinv_medium_t
             if (r == HETINV_SUCCESS) r = push_row(im, ei, probe, true);
             if (r == HETINV_SUCCESS) ++im->rows_pathlength;
           }
-          for (int c = 0; r == HETINV_SUCCESS && steady && c < 6; ++c) {
-            if (cameras[c] >= 0) r = push_row(im, ei, cameras[c], false);
+          for (int c = 0; r == HETINV_SUCCESS && c < 6; ++c) {
+            if (cameras[c] >= 0) r = push_row(im, ei, cameras[c], camera_bins);
           }
         }
       }

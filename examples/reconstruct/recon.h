@@ -14,12 +14,16 @@
 
 #include <hetinv/hetinv.h>
 
-/* The imaging configurations of the paper's Fig. 4 (section 6). */
+/* The imaging configurations of the paper's Fig. 4 (section 6), and its
+ * Fig. 5's front-, side- and back-lighting. */
 typedef enum recon_config {
   RECON_PATHLENGTH = 1,       /* (1) pathlength-resolved, sensor at the source pixel and its two neighbours */
   RECON_STEADY = 2,           /* (2) steady-state orthographic cameras, several source orientations */
   RECON_PATHLENGTH_ANGLES = 3, /* (3) like (1), source orientations instead of neighbours */
-  RECON_COMBINED = 4          /* (4) (1) with its low-SNR values replaced by (2)'s steady state */
+  RECON_COMBINED = 4,         /* (4) (1) with its low-SNR values replaced by (2)'s steady state */
+  RECON_PATHLENGTH_CAMERAS = 5 /* (2)'s cameras, pathlength-resolved: a source on the camera's face
+                                * front-lights it, one on a side face side-lights it, one opposite
+                                * back-lights it */
 } recon_config_t;
 
 enum { RECON_TRUTH_MIXTURE, RECON_TRUTH_SMOKE, RECON_TRUTH_VOL };
@@ -128,6 +132,9 @@ int recon_scene_check(const recon_scene_t *scene, char *msg, size_t msg_size);
 /* Pathlength bins of the transient configurations, as a double (it may be
  * huge before recon_scene_check() has seen the scene). */
 double recon_bin_count(const recon_scene_t *scene);
+/* Whether the configuration has cameras on its camera_faces: (2), (4) and
+ * pathlength_cameras. */
+bool recon_has_cameras(const recon_scene_t *scene);
 
 /* Emitters, rows and values the configuration would make, computed (as
  * doubles, without overflow) from the scene alone, before building it. */

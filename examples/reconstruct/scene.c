@@ -211,7 +211,8 @@ static int read_imaging(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
                                         "camera_faces", "source_stride", "bin_width", "max_pathlength",
                                         "snr_threshold", NULL};
   if (jr_check_object(jr, o, "imaging", allowed) < 0) return -1;
-  static const char *const configs[] = {"pathlength", "steady", "pathlength_angles", "combined", NULL};
+  static const char *const configs[] = {"pathlength", "steady", "pathlength_angles", "combined",
+                                        "pathlength_cameras", NULL};
   int c = (int)sc->config - 1;
   if (jr_choice(jr, o, "imaging", "configuration", JR_OPTIONAL, configs, &c) < 0) return -1;
   sc->config = (recon_config_t)(c + 1);
@@ -473,8 +474,9 @@ int recon_scene_check(const recon_scene_t *sc, char *msg, size_t n) {
     snprintf(msg, n, "imaging.source_faces: no face carries a source");
     return -1;
   }
-  if ((sc->config == RECON_STEADY || sc->config == RECON_COMBINED) && sc->camera_faces == 0) {
-    snprintf(msg, n, "imaging.camera_faces: steady-state configurations need a camera");
+  if (recon_has_cameras(sc) && sc->camera_faces == 0) {
+    snprintf(msg, n, "imaging.camera_faces: configuration %s needs a camera",
+             sc->config == RECON_PATHLENGTH_CAMERAS ? "pathlength_cameras" : "steady or combined");
     return -1;
   }
   if (sc->config != RECON_STEADY && sc->max_pathlength < sc->bin_width) {
