@@ -152,6 +152,8 @@ enum hetinv_stop_reason_id {
  * @brief One stage of the schedule.
  *
  * The struct begins with its size: set @c size = sizeof(hetinv_stage_t).
+ * Members are only ever added at the end; a caller built against an older
+ * header passes its smaller size and the newer members read as 0.
  */
 typedef struct hetinv_stage {
   size_t size;                    /**< sizeof(hetinv_stage_t), set by the caller */
@@ -159,7 +161,17 @@ typedef struct hetinv_stage {
   int32_t iterations;             /**< iterations; 0 = HETINV_OPTIMIZER_ITERATIONS */
   const uint8_t *frozen;          /**< hetinv_param_map_size(map) bytes, non-zero = entry kept fixed; or NULL. Copied. */
   const uint8_t *value_mask;      /**< value_count bytes, 0 = value left out (ANDed with the set's mask); or NULL. Copied. */
+  /** ADADELTA's ε at the start of this stage, relative as
+   *  HETINV_OPTIMIZER_EPSILON (in [1e-12, 1]); it falls linearly to that
+   *  tunable over the stage's first half and stays there: far moves early,
+   *  then the tunable's small steps for the iterates the result averages.
+   *  0 = the tunable throughout. Added in 0.2. */
+  double epsilon_start;
 } hetinv_stage_t;
+
+/** The size of the first hetinv_stage_t (without @c epsilon_start), which
+ *  hetinv_optimizer_add_stage() still accepts. */
+#define HETINV_STAGE_SIZE_V1 (offsetof(hetinv_stage_t, value_mask) + sizeof(const uint8_t *))
 
 /**
  * @brief What the progress callback is told after every iteration.

@@ -64,12 +64,24 @@ static void reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, s
   opt->pi[j] = g_new;
 }
 
-double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen) {
+double hv_stage_epsilon(const hetinv_optimizer_t *opt) {
+  const double end = opt->param[HETINV_OPTIMIZER_EPSILON];
+  const hv_stage_t *st = &opt->stages[opt->stage];
+  if (st->epsilon_start == 0.0) return end;
+  /* Linear from epsilon_start at the stage's first step to the tunable at
+   * its middle; the second half, which the result averages, at the tunable. */
+  double half = 0.5 * (double)st->iterations, t = (double)opt->stage_iteration;
+  double f = half > 0.0 && t < half ? 1.0 - t / half : 0.0;
+  return end + (st->epsilon_start - end) * f;
+}
+
+double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double epsilon) {
   const double *par = opt->param;
   double b1 = par[HETINV_OPTIMIZER_BETA1], b2 = par[HETINV_OPTIMIZER_BETA2];
   /* Adam's bias corrections, for the stage's iteration t = 1, 2, ... */
   double t = (double)(opt->stage_iteration + 1);
-  method_t m = {(int)par[HETINV_OPTIMIZER_METHOD], par[HETINV_OPTIMIZER_DECAY], par[HETINV_OPTIMIZER_EPSILON],
+  method_t m = {(int)par[HETINV_OPTIMIZER_METHOD], par[HETINV_OPTIMIZER_DECAY],
+                epsilon,
                 par[HETINV_OPTIMIZER_LEARNING_RATE], b1, b2, 1.0 - pow(b1, t), 1.0 - pow(b2, t)};
   bool reduced = par[HETINV_OPTIMIZER_COORDINATES] == HETINV_COORDINATES_REDUCED;
   double sq = 0.0;

@@ -193,9 +193,16 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
   HV_CHECK_NULL(ctx, stage);
-  if (stage->size < sizeof(hetinv_stage_t)) {
-    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage->size is %zu; it must be sizeof(hetinv_stage_t) = %zu",
-                   stage->size, sizeof(hetinv_stage_t));
+  if (stage->size != HETINV_STAGE_SIZE_V1 && stage->size != sizeof(hetinv_stage_t)) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "stage->size is %zu; it must be sizeof(hetinv_stage_t) = %zu (or %zu, the first version's)",
+                   stage->size, sizeof(hetinv_stage_t), (size_t)HETINV_STAGE_SIZE_V1);
+  }
+  /* Members past the caller's size read as 0. */
+  const double epsilon_start = stage->size == sizeof(hetinv_stage_t) ? stage->epsilon_start : 0.0;
+  if (!(epsilon_start == 0.0 || (epsilon_start >= 1e-12 && epsilon_start <= 1.0))) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: epsilon_start is %g; it must be 0 or in [1e-12, 1]",
+                   (int)optimizer->stage_count, epsilon_start);
   }
   if (stage->map == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'stage->map' is NULL");
   if (!hv_param_map_fits(stage->map, optimizer->initial)) {
@@ -223,7 +230,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
     optimizer->stages = grown;
     optimizer->stage_capacity = cap;
   }
-  hv_stage_t s = {.map = stage->map, .k = hetinv_param_map_size(stage->map), .requested = stage->iterations};
+  hv_stage_t s = {.map = stage->map, .k = hetinv_param_map_size(stage->map), .requested = stage->iterations,
+                  .epsilon_start = epsilon_start};
   bool failed = false;
   s.frozen = copy_bytes(ctx, stage->frozen, s.k, &failed);
   s.value_mask = copy_bytes(ctx, stage->value_mask, hetinv_measurements_value_count(optimizer->set), &failed);

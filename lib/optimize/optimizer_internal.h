@@ -17,6 +17,7 @@ typedef struct hv_stage {
   int32_t requested;  /* the stage's own count, 0 = the ITERATIONS tunable */
   uint8_t *frozen;     /* k bytes or NULL */
   uint8_t *value_mask; /* value_count bytes or NULL */
+  double epsilon_start; /* ADADELTA's ε at the stage's start (falls to the tunable); 0 = the tunable */
 } hv_stage_t;
 
 /* Rows of the set grouped by emitter (in order of first use):
@@ -89,9 +90,12 @@ hetinv_result_t hv_minibatch_set(const hetinv_optimizer_t *opt, const int32_t *p
                                  int32_t count, const uint8_t *value_mask,
                                  hetinv_measurements_t **out);
 
-/* methods.c: one step of the optimizer's method on the stage's entries;
- * returns the RMS of the step relative to the scales. */
-double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen);
+/* methods.c: one step of the optimizer's method on the stage's entries,
+ * ADADELTA's ε given (hv_stage_epsilon); returns the RMS of the step
+ * relative to the scales. */
+double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double epsilon);
+/* ADADELTA's ε at the current iteration of the current stage. */
+double hv_stage_epsilon(const hetinv_optimizer_t *opt);
 
 /* checkpoint.c */
 hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path);

@@ -182,6 +182,7 @@ typedef struct setup {
   const hetinv_param_map_t *maps[2];
   int32_t iterations[2];
   double method, minibatch, window, interval;
+  double epsilon_start[2]; /* each stage's ε at its start; 0 = the tunable */
 } setup_t;
 
 /* One coarse stage of 8 iterations, ADADELTA, every emitter, window 3. */
@@ -203,7 +204,7 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const setup_t *s) {
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, s->window);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, s->interval);
   for (int i = 0; r == HETINV_SUCCESS && i < s->stages; ++i) {
-    hetinv_stage_t st = {sizeof st, s->maps[i], s->iterations[i], NULL, NULL};
+    hetinv_stage_t st = {sizeof st, s->maps[i], s->iterations[i], NULL, NULL, s->epsilon_start[i]};
     r = hetinv_optimizer_add_stage(opt, &st);
   }
   return r;
@@ -414,7 +415,7 @@ static void configuration_is_frozen_once_run(void **state) {
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 3));
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 0, 5));
   assert_message_contains("sigma_s");
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0};
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_add_stage(opt, &st));
   double v = 0;
   assert_ok(hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, &v));
@@ -435,7 +436,7 @@ static void stage_and_create_errors(void **state) {
   hetinv_measurements_destroy(&empty);
 
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL};
+  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL, 0.0};
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
   assert_message_contains("size");
   st.size = sizeof st;
@@ -520,7 +521,7 @@ static void adadelta_steps_match_hand_computation(void **state) {
    *   δ = sqrt(0 + 0.0081) / sqrt(0.4) · 2 = 0.09·2/sqrt(0.4) = 0.9/sqrt(10);
    *   E[δ²] = 0.1·δ² = 0.0081. Entry 2 (g = 0, E[g²] = 0) does not move. */
   h.grad[0] = 2, h.grad[1] = 7, h.grad[2] = 0;
-  double rms = hv_method_step(&h.opt, frozen);
+  double rms = hv_method_step(&h.opt, frozen, 0.01);
   double d1 = 0.9 / sqrt(10.0);
   assert_close(h.acc1[0], 0.4, 1e-15);
   assert_close(h.acc2[0], 0.0081, 1e-15);
@@ -533,7 +534,7 @@ static void adadelta_steps_match_hand_computation(void **state) {
    *   entry 0: E[g²] = 0.9·0.4 + 0.1·1 = 0.46; δ = sqrt(0.0081 + 0.0081)/sqrt(0.46)·1;
    *   entry 2: E[g²] = 0.1·9 = 0.9, ε = (0.0198)²; δ = 0.0198/sqrt(0.9)·(−3), a step up. */
   h.grad[0] = 1, h.grad[2] = -3;
-  rms = hv_method_step(&h.opt, frozen);
+  rms = hv_method_step(&h.opt, frozen, 0.01);
   double d2 = sqrt(0.0162 / 0.46), d2g = 0.0198 / sqrt(0.9) * -3;
   assert_close(h.acc1[0], 0.46, 1e-15);
   assert_close(h.acc2[0], 0.9 * 0.0081 + 0.1 * d2 * d2, 1e-15);
@@ -543,6 +544,29 @@ static void adadelta_steps_match_hand_computation(void **state) {
   assert_close(rms, sqrt(((d2 / 9) * (d2 / 9) + (d2g / 1.98) * (d2g / 1.98)) / 2), 1e-15);
 }
 
+/* ADADELTA steps with the ε it is given: with 0.02, ε = (0.02·9)² and
+ * δ = sqrt(0.0324) / sqrt(0.4) · 2. A stage's epsilon_start falls
+ * linearly to the tunable over the stage's first half. */
+static void adadelta_steps_with_the_stage_epsilon(void **state) {
+  (void)state;
+  hand_t h;
+  hand_init(&h, HETINV_METHOD_ADADELTA);
+  h.grad[0] = 2;
+  hv_method_step(&h.opt, NULL, 0.02);
+  assert_close(h.pi[0], 5 - 0.18 * 2 / sqrt(0.4), 1e-14);
+  hv_stage_t st = {.iterations = 8, .epsilon_start = 0.05};
+  h.opt.stages = &st;
+  h.opt.stage = 0;
+  const double expect[8] = {0.05, 0.04, 0.03, 0.02, 0.01, 0.01, 0.01, 0.01};
+  for (int t = 0; t < 8; ++t) {
+    h.opt.stage_iteration = t;
+    assert_close(hv_stage_epsilon(&h.opt), expect[t], 1e-15);
+  }
+  st.epsilon_start = 0.0; /* the tunable throughout */
+  h.opt.stage_iteration = 0;
+  assert_true(hv_stage_epsilon(&h.opt) == 0.01);
+}
+
 /* SGD, AdaGrad and Adam in scaled coordinates, with projection. */
 static void other_methods_step_as_documented(void **state) {
   (void)state;
@@ -550,7 +574,7 @@ static void other_methods_step_as_documented(void **state) {
   /* SGD: δ = rate·s²·g = 0.1·81·2 = 16.2: far below the box, projected to 1. */
   hand_init(&h, HETINV_METHOD_SGD);
   h.grad[0] = 2, h.grad[1] = -0.05, h.grad[2] = 0;
-  double rms = hv_method_step(&h.opt, NULL);
+  double rms = hv_method_step(&h.opt, NULL, 0.01);
   assert_true(h.pi[0] == 1.0);
   assert_close(h.pi[1], 5 + 0.1 * 81 * 0.05, 1e-14);
   assert_true(h.pi[2] == 0.2);
@@ -558,11 +582,11 @@ static void other_methods_step_as_documented(void **state) {
   /* AdaGrad: Σg² = 4, δ = 0.1·9·2/2 = 0.9; then Σg² = 4 + 1, δ = 0.1·9·1/sqrt(5). */
   hand_init(&h, HETINV_METHOD_ADAGRAD);
   h.grad[0] = 2;
-  hv_method_step(&h.opt, NULL);
+  hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[0], 4.1, 1e-14);
   assert_true(h.pi[1] == 5 && h.pi[2] == 0.2); /* no gradient yet: no step, no NaN */
   h.grad[0] = 1;
-  hv_method_step(&h.opt, NULL);
+  hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[0], 4.1 - 0.9 / sqrt(5.0), 1e-14);
   /* Adam (β1 = 0.5, β2 = 0.75), t = stage_iteration + 1:
    *   t = 1, g = 2: m = 1, v = 1, m̂ = 2, v̂ = 4, δ = 0.1·9·2/2 = 0.9;
@@ -570,13 +594,13 @@ static void other_methods_step_as_documented(void **state) {
   hand_init(&h, HETINV_METHOD_ADAM);
   h.grad[0] = 2;
   h.opt.stage_iteration = 0;
-  hv_method_step(&h.opt, NULL);
+  hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.acc1[0], 1.0, 1e-15);
   assert_close(h.acc2[0], 1.0, 1e-15);
   assert_close(h.pi[0], 4.1, 1e-14);
   h.grad[0] = 1;
   h.opt.stage_iteration = 1;
-  hv_method_step(&h.opt, NULL);
+  hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[0], 4.1 - 0.9 * (4.0 / 3.0) * sqrt(0.4375), 1e-14);
   assert_true(h.pi[1] == 5 && h.pi[2] == 0.2);
 }
@@ -596,7 +620,7 @@ static void reduced_coordinates_step_by_the_chain_rule(void **state) {
    * SGD: δ = rate·s²·gradient with rate 0.1, s = 9 (σs') and 1.98 (g). */
   double dr = 0.1 * 81 * (0.01 / 0.8), dg = 0.1 * 1.98 * 1.98 * (0.02 + 0.01 * 5 / 0.8);
   double g_new = 0.2 - dg, s_new = (5 * 0.8 - dr) / (1 - g_new);
-  double rms = hv_method_step(&h.opt, NULL);
+  double rms = hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[2], g_new, 1e-14);
   assert_close(h.pi[0], s_new, 1e-14);
   assert_close(h.pi[1], 5 - 0.1 * 81 * 0.001, 1e-14);
@@ -611,14 +635,14 @@ static void reduced_coordinates_step_by_the_chain_rule(void **state) {
   h.opt.pair_of_sigma_s = pair_of_sigma_s;
   h.opt.pair_of_g = pair_of_g;
   h.grad[0] = -1, h.grad[2] = -10;
-  hv_method_step(&h.opt, NULL);
+  hv_method_step(&h.opt, NULL, 0.01);
   assert_true(h.pi[2] == 0.99 && h.pi[0] == 10);
   /* Native coordinates ignore the pairs. */
   hand_init(&h, HETINV_METHOD_SGD);
   h.opt.pair_of_sigma_s = pair_of_sigma_s;
   h.opt.pair_of_g = pair_of_g;
   h.grad[0] = 0.01, h.grad[2] = 0.02;
-  hv_method_step(&h.opt, NULL);
+  hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[0], 5 - 0.1 * 81 * 0.01, 1e-14);
   assert_close(h.pi[2], 0.2 - 0.1 * 1.98 * 1.98 * 0.02, 1e-14);
 }
@@ -742,7 +766,7 @@ static void frozen_entries_never_move(void **state) {
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, SIGMA_HI));
   const uint8_t frozen[4] = {1, 0, 0, 1};
-  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL};
+  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   pi_log_t *log = calloc(1, sizeof *log);
   log->opt = opt;
@@ -766,7 +790,7 @@ static void masked_values_give_no_gradient(void **state) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_METHOD, method));
     uint8_t *mask = calloc(p->count, 1);
-    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask};
+    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask, 0.0};
     assert_ok(hetinv_optimizer_add_stage(opt, &st));
     free(mask); /* copied */
     assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
@@ -845,7 +869,7 @@ static void stages_run_their_counts_with_right_progress(void **state) {
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 4));
-  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL}, b = {sizeof b, p->identity, 0, NULL, NULL};
+  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL, 0.0}, b = {sizeof b, p->identity, 0, NULL, NULL, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &a));
   assert_ok(hetinv_optimizer_add_stage(opt, &b));
   pi_log_t *log = calloc(1, sizeof *log);
@@ -889,7 +913,7 @@ static void iterations_default_is_100(void **state) {
   assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL};
+  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   stopper_t s = {.stop_at = -1};
   assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &s));
@@ -914,7 +938,7 @@ static void a_plateau_ends_a_stage_early(void **state) {
   /* Tolerance 1: no decrease can beat it, so each stage ends after 2·window. */
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 3));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 1));
-  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL}, b = {sizeof b, p->identity, 50, NULL, NULL};
+  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL, 0.0}, b = {sizeof b, p->identity, 50, NULL, NULL, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &a));
   assert_ok(hetinv_optimizer_add_stage(opt, &b));
   pi_log_t *log = calloc(1, sizeof *log);
@@ -937,7 +961,7 @@ static void a_plateau_ends_a_stage_early(void **state) {
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 2));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 0));
   uint8_t *mask = calloc(p->count, 1);
-  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask};
+  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &c));
   free(mask);
   assert_ok(hetinv_optimizer_run(opt, p->est, &why));
@@ -1002,6 +1026,42 @@ static void the_callback_stops_and_run_continues(void **state) {
 
 /* ------------------------------------------------------------------------ */
 /* 6. Multi-resolution: stage 2 starts from stage 1's averaged result. */
+
+/* A stage whose epsilon_start is the tunable runs bitwise as one without;
+ * a larger one moves the run elsewhere; a caller built against the first
+ * hetinv_stage_t passes its smaller size and what follows is not read; a
+ * bad value is refused. */
+static void a_stage_epsilon_start_changes_only_the_first_half(void **state) {
+  const problem_t *p = *state;
+  outcome_t *o = calloc(4, sizeof *o);
+  setup_t s = coarse_setup(p);
+  reference_run(p, &s, 1, &o[0]);
+  s.epsilon_start[0] = 0.01; /* the tunable's default */
+  reference_run(p, &s, 1, &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  s.epsilon_start[0] = 0.05;
+  reference_run(p, &s, 1, &o[2]);
+  assert_true(memcmp(o[0].pi, o[2].pi, sizeof o[0].pi) != 0);
+  /* The first version's size: epsilon_start (0.05 here) is past it, unread. */
+  setup_t t = coarse_setup(p);
+  t.stages = 0;
+  hetinv_optimizer_t *opt = make_optimizer(p, &t);
+  hetinv_stage_t v1 = {HETINV_STAGE_SIZE_V1, p->coarse, 8, NULL, NULL, 0.05};
+  assert_ok(hetinv_optimizer_add_stage(opt, &v1));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  capture(opt, 1, &o[3]);
+  hetinv_optimizer_destroy(&opt);
+  assert_same_outcome(&o[0], &o[3]);
+  const double bad[3] = {-0.01, 1.5, NAN};
+  for (int i = 0; i < 3; ++i) {
+    assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, bad[i]};
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
+    assert_message_contains("epsilon_start");
+    hetinv_optimizer_destroy(&opt);
+  }
+  free(o);
+}
 
 static void the_next_stage_starts_from_the_average(void **state) {
   const problem_t *p = *state;
@@ -1188,6 +1248,13 @@ static void resume_refuses_another_configuration(void **state) {
   opt = make_optimizer(p, &t);
   expect_refused(opt, path, "stage 0");
   assert_message_contains("iterations 8 vs 9");
+  hetinv_optimizer_destroy(&opt);
+  /* A stage's own starting ε. */
+  t = s;
+  t.epsilon_start[0] = 0.02;
+  opt = make_optimizer(p, &t);
+  expect_refused(opt, path, "stage 0");
+  assert_message_contains("epsilon_start");
   hetinv_optimizer_destroy(&opt);
   /* Another schedule. */
   t = two_stage_setup(p);
@@ -1712,7 +1779,7 @@ static void layerwise_stages_free_one_layer_each(void **state) {
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, 1));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 0.05));
   /* A first coarse stage, then three layers of 1/3 mm. */
-  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL};
+  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &first));
   const double h = 1.0 / 3;
   assert_ok(hetinv_optimizer_add_layerwise_stages(opt, p.identity, h, 3, 4));
@@ -1798,7 +1865,7 @@ static void null_arguments_are_refused(void **state) {
   s.iterations[0] = 1;
   opt = make_optimizer(p, &s);
   double v = 0, pi[1];
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0};
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_set_param(NULL, HETINV_OPTIMIZER_DECAY, 0.5));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(NULL, HETINV_OPTIMIZER_DECAY, &v));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, NULL));
@@ -1857,6 +1924,7 @@ int main(void) {
       cmocka_unit_test(configuration_is_frozen_once_run),
       cmocka_unit_test(stage_and_create_errors),
       cmocka_unit_test(adadelta_steps_match_hand_computation),
+      cmocka_unit_test(adadelta_steps_with_the_stage_epsilon),
       cmocka_unit_test(other_methods_step_as_documented),
       cmocka_unit_test(reduced_coordinates_step_by_the_chain_rule),
       cmocka_unit_test(every_method_moves_sigma_s_toward_the_truth),
@@ -1870,6 +1938,7 @@ int main(void) {
       cmocka_unit_test(a_time_budget_stops_the_run),
       cmocka_unit_test(the_callback_stops_and_run_continues),
       cmocka_unit_test(the_next_stage_starts_from_the_average),
+      cmocka_unit_test(a_stage_epsilon_start_changes_only_the_first_half),
       cmocka_unit_test(killed_runs_resume_bitwise),
       cmocka_unit_test(resume_refuses_another_configuration),
       cmocka_unit_test(damaged_checkpoints_are_refused),

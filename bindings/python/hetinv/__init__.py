@@ -44,7 +44,7 @@ from .estimator import Bound, Estimator, Fisher, Gradient, LossGradient, Render,
 from .optimizer import Optimizer, Progress, optimizer_param_bounds
 from .acquire import Noisy, apply_noise
 
-__version__ = "0.1.0"  # the library version this package is written for (pyproject.toml reads it)
+__version__ = "0.2.0"  # the library version this package is written for (pyproject.toml reads it)
 
 
 def version():

@@ -130,6 +130,7 @@ class Stage(_Sized):
         ("iterations", ctypes.c_int32),
         ("frozen", ctypes.POINTER(ctypes.c_uint8)),
         ("value_mask", ctypes.POINTER(ctypes.c_uint8)),
+        ("epsilon_start", ctypes.c_double),
     ]
 
 

@@ -102,15 +102,17 @@ class Optimizer(Handle):
                                        number(hi, "hi")))
         return self
 
-    def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None):
+    def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None, epsilon_start=0.0):
         """Append a stage on `param_map`. frozen: param_map.size flags
         (true = entry kept fixed); value_mask: value_count flags (false =
-        value left out). iterations 0: the "iterations" tunable."""
+        value left out). iterations 0: the "iterations" tunable. epsilon_start:
+        ADADELTA's relative epsilon at the stage's start, falling linearly to
+        the "epsilon" tunable over its first half; 0: the tunable throughout."""
         me = self._ptr
         handle_arg(param_map, ParamMap, "param_map")
         f = _mask_bytes(frozen, param_map.size, "frozen")
         m = _mask_bytes(value_mask, self._measurements.value_count, "value_mask")
-        stage = _structs_stage(param_map, integer(iterations, "iterations"), f, m)
+        stage = _structs_stage(param_map, integer(iterations, "iterations"), f, m, number(epsilon_start, "epsilon_start"))
         check(lib.optimizer_add_stage(me, ctypes.byref(stage)))
         self._borrow(param_map)
         self._maps.append(param_map)
@@ -235,7 +237,7 @@ class Optimizer(Handle):
         return _arrays.copy_from(ptr, n.value if ptr else 0)
 
 
-def _structs_stage(param_map, iterations, frozen, value_mask):
+def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start):
     from ._structs import Stage
 
     s = Stage()
@@ -243,4 +245,5 @@ def _structs_stage(param_map, iterations, frozen, value_mask):
     s.iterations = iterations
     s.frozen = frozen.ptr
     s.value_mask = value_mask.ptr
+    s.epsilon_start = epsilon_start
     return s
