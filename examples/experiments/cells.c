@@ -39,6 +39,10 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " epsilon=%.17g", sc->epsilon);
   }
+  if (sc->epsilon_start != 0.0) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " epsilon_start=%.17g", sc->epsilon_start);
+  }
   if (sc->coordinates != HETINV_COORDINATES_NATIVE) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " coordinates=%s", recon_coordinate_names[sc->coordinates]);

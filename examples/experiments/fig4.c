@@ -7,7 +7,7 @@
  * parameter and configuration.
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
- *               [--photons N] [--minibatch N] [--epsilon E] [--decay D]
+ *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
  *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -54,7 +54,9 @@
  * number of paths per iteration, which tells the minibatch's sampling
  * noise apart from each source's Monte Carlo noise. --epsilon E sets
  * ADADELTA's ε (default 0.003, 0.0015 with --full), the scale of its
- * steps once the gradient is mostly noise; --decay D its running means'
+ * steps once the gradient is mostly noise; --epsilon-start E starts the
+ * finest stage at that ε, falling linearly to --epsilon's by its middle
+ * (optimizer.epsilon_start); --decay D its running means'
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
  * as (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of
  * the loss and the bound every value whose standard error exceeds
@@ -91,7 +93,7 @@ static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--minibatch N] [--epsilon E] [--decay D]\n"
+          "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
           "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -445,7 +447,7 @@ int main(int argc, char **argv) {
   int64_t bound_photons = -1, bound_replicates = 4, fit_photons = 20000;
   double scale = -1.0, epsilon = -1.0, min_snr = -1.0;
   int coordinates = -1;
-  double decay = -1.0;
+  double decay = -1.0, epsilon_start = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -511,6 +513,9 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--epsilon") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &epsilon) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--epsilon-start") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &epsilon_start) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--decay") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &decay) < 0) return 2;
@@ -578,6 +583,7 @@ int main(int argc, char **argv) {
                  init_truth, out);
       if (coordinates >= 0) sc.coordinates = coordinates;
       if (decay >= 0.0) sc.decay = decay;
+      if (epsilon_start > 0.0) sc.epsilon_start = epsilon_start;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);

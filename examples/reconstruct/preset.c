@@ -144,6 +144,10 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   put_number(f, sc->coarse_fraction);
   fprintf(f, ", \"minibatch\": %d, \"epsilon\": ", (int)sc->minibatch);
   put_number(f, sc->epsilon);
+  if (sc->epsilon_start > 0.0) {
+    fprintf(f, ", \"epsilon_start\": ");
+    put_number(f, sc->epsilon_start);
+  }
   fprintf(f, ", \"decay\": ");
   put_number(f, sc->decay);
   fprintf(f, ",\n                \"learning_rate\": ");

@@ -103,6 +103,7 @@ typedef struct recon_scene {
   double coarse_fraction;       /* iterations of each coarser stage, relative */
   int32_t minibatch;
   double epsilon, decay, learning_rate;
+  double epsilon_start;         /* the finest stage's ADADELTA ε at its start (0: epsilon throughout) */
   int32_t average_window;       /* 0: half the finest stage's iterations */
   double time_budget;
   double bounds_lo[3], bounds_hi[3];

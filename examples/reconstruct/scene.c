@@ -326,7 +326,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
-                                        "decay", "learning_rate", "average_window", "time_budget", "bounds",
+                                        "epsilon_start", "decay", "learning_rate", "average_window", "time_budget", "bounds",
                                         "init", "levels", "layerwise_layers", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
@@ -341,6 +341,10 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   }
   if (read_int32(jr, o, "optimizer", "minibatch", 0, INT32_MAX, &sc->minibatch) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "epsilon", JR_OPTIONAL, &sc->epsilon) < 0) return -1;
+  if (jr_positive(jr, o, "optimizer", "epsilon_start", JR_OPTIONAL, &sc->epsilon_start) < 0) return -1;
+  if (!(sc->epsilon_start <= 1.0)) {
+    return jr_fail(jr, "optimizer.epsilon_start", "is %g; it must be > 0 and at most 1", sc->epsilon_start);
+  }
   if (jr_number(jr, o, "optimizer", "decay", JR_OPTIONAL, &sc->decay) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "average_window", 0, 4096, &sc->average_window) < 0) return -1;

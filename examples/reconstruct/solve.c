@@ -180,7 +180,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
     r = hetinv_param_map_create_coarse(init, cells, HETINV_FREE_ALL, &maps[l]);
     bool finest = l + 1 == sc->level_count;
     int64_t it = finest ? sc->iterations : (int64_t)ceil(sc->coarse_fraction * (double)sc->iterations);
-    hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL};
+    hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL, finest ? sc->epsilon_start : 0.0};
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_stage(opt, &stage);
   }
   progress_line_t pl = {.quiet = quiet, .tty = isatty(2) != 0};
