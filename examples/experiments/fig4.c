@@ -252,6 +252,10 @@ static int print_fit_check(const recon_scene_t *sc, int64_t threads, int64_t pho
          "at the recovery %.6g +- %.2g; recovery - truth %+.6g +- %.2g: %s (%lld photons per source, %.0f s)\n",
          sc->name, f.truth, f.truth_se, f.expected, f.values, f.recovery, f.recovery_se, diff, f.difference_se,
          verdict, (long long)photons, f.seconds);
+  printf("  the ten values with the largest shares of that error hold %.0f %% of its variance; the largest "
+         "(%.0f %%): row %d (%s), data %.3g +- %.2g, the truth's render %.3g +- %.2g\n",
+         100.0 * f.top10_share, 100.0 * f.worst.share, (int)f.worst.row, f.worst.bins ? "pathlength bins" : "steady",
+         f.worst.data, f.worst.data_se, f.worst.render, f.worst.render_se);
   fflush(stdout);
   return 0;
 }

@@ -35,6 +35,45 @@ static void misfit(const hetinv_measurements_t *set, const double *rendered, con
   *sum_se = sqrt(var);
 }
 
+/* The largest shares of the difference's variance (fit_check_t.worst, top10_share). */
+static void find_worst(const hetinv_measurements_t *set, const double *pt, const double *pr, const double *render,
+                       const double *render_se, double var, fit_check_t *out) {
+  size_t n = hetinv_measurements_value_count(set);
+  double top[10] = {0};
+  size_t worst = 0;
+  for (size_t i = 0; i < n; ++i) {
+    double v = pt[i] + pr[i];
+    if (v > pt[worst] + pr[worst]) worst = i;
+    if (v > top[9]) { /* insertion into the ten largest */
+      int j = 9;
+      while (j > 0 && top[j - 1] < v) {
+        top[j] = top[j - 1];
+        --j;
+      }
+      top[j] = v;
+    }
+  }
+  double sum = 0.0;
+  for (int j = 0; j < 10; ++j) sum += top[j];
+  out->top10_share = var > 0.0 ? sum / var : 0.0;
+  out->worst.share = var > 0.0 ? (pt[worst] + pr[worst]) / var : 0.0;
+  int32_t rows = hetinv_measurements_row_count(set);
+  for (int32_t row = 0; row < rows; ++row) {
+    size_t off = 0;
+    int32_t pixels = 0, bins = 0;
+    hetinv_measurements_row_layout(set, row, &off, &pixels, &bins);
+    if (worst >= off && worst < off + (size_t)pixels * (size_t)bins) {
+      out->worst.row = row;
+      out->worst.bins = bins > 1;
+      break;
+    }
+  }
+  out->worst.data = hetinv_measurements_values(set)[worst];
+  out->worst.data_se = hetinv_measurements_std_errors(set)[worst];
+  out->worst.render = render[worst];
+  out->worst.render_se = render_se[worst];
+}
+
 static hetinv_result_t read_recovery(hetinv_context_t *ctx, const recon_scene_t *sc, hetinv_medium_t **out,
                                      char *msg, size_t msg_size) {
   hetinv_result_t r = recon_medium_create(ctx, sc, out);
@@ -96,6 +135,7 @@ int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, fit
       ++out->values;
     }
     out->difference_se = sqrt(var);
+    find_worst(im.set, pt, pr, it, st, var, out);
   }
   if (r != HETINV_SUCCESS && msg[0] == '\0') {
     snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(ctx));

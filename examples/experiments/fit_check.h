@@ -20,6 +20,16 @@ typedef struct fit_check {
   double expected;              /* E[misfit at the truth] from the data's noise: Σ mask·w·σ² */
   size_t values;                /* values in the loss (mask set, weight > 0) */
   double seconds;
+  /* The value with the largest share of difference_se² (a heavy-tailed
+   * render error shows up here): its row, whether the row is in bins,
+   * the data and their standard error, the truth's render and its error. */
+  struct {
+    double share;
+    int32_t row;
+    bool bins;
+    double data, data_se, render, render_se;
+  } worst;
+  double top10_share; /* the ten largest shares together */
 } fit_check_t;
 
 /* Simulates the scene's data (as its cell did), reads the recovery from
