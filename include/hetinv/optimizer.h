@@ -167,10 +167,16 @@ typedef struct hetinv_stage {
    *  then the tunable's small steps for the iterates the result averages.
    *  0 = the tunable throughout. Added in 0.2. */
   double epsilon_start;
+  /** The trailing iterates this stage's result averages (the next stage's
+   *  start, or the run's result), at most HETINV_OPTIMIZER_AVERAGE_WINDOW
+   *  (the averaging ring's length; a larger value acts as it); 0 = that
+   *  tunable. A short stage under a long tunable window would otherwise
+   *  hand on the mean of its whole path, its start included. Added in 0.2. */
+  int32_t average_window;
 } hetinv_stage_t;
 
-/** The size of the first hetinv_stage_t (without @c epsilon_start), which
- *  hetinv_optimizer_add_stage() still accepts. */
+/** The size of the first hetinv_stage_t (without @c epsilon_start and
+ *  @c average_window), which hetinv_optimizer_add_stage() still accepts. */
 #define HETINV_STAGE_SIZE_V1 (offsetof(hetinv_stage_t, value_mask) + sizeof(const uint8_t *))
 
 /**

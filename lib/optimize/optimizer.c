@@ -199,7 +199,13 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
                    stage->size, sizeof(hetinv_stage_t), (size_t)HETINV_STAGE_SIZE_V1);
   }
   /* Members past the caller's size read as 0. */
-  const double epsilon_start = stage->size == sizeof(hetinv_stage_t) ? stage->epsilon_start : 0.0;
+  const bool v2 = stage->size == sizeof(hetinv_stage_t);
+  const double epsilon_start = v2 ? stage->epsilon_start : 0.0;
+  const int32_t average_window = v2 ? stage->average_window : 0;
+  if (average_window < 0) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: average_window is %d; it must be >= 0",
+                   (int)optimizer->stage_count, (int)average_window);
+  }
   if (!(epsilon_start == 0.0 || (epsilon_start >= 1e-12 && epsilon_start <= 1.0))) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: epsilon_start is %g; it must be 0 or in [1e-12, 1]",
                    (int)optimizer->stage_count, epsilon_start);
@@ -231,7 +237,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
     optimizer->stage_capacity = cap;
   }
   hv_stage_t s = {.map = stage->map, .k = hetinv_param_map_size(stage->map), .requested = stage->iterations,
-                  .epsilon_start = epsilon_start};
+                  .epsilon_start = epsilon_start, .average_window = average_window};
   bool failed = false;
   s.frozen = copy_bytes(ctx, stage->frozen, s.k, &failed);
   s.value_mask = copy_bytes(ctx, stage->value_mask, hetinv_measurements_value_count(optimizer->set), &failed);
@@ -360,20 +366,24 @@ hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt) {
   return HETINV_SUCCESS;
 }
 
-/* Mean of the iterates in the ring, oldest first (a fixed order). */
+/* Mean of the stage's window of most recent iterates in the ring, oldest
+ * first (a fixed order). */
 void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out) {
   size_t k = opt->k;
-  if (opt->ring_count == 0) {
+  int32_t count = opt->ring_count;
+  int32_t stage_window = opt->stage < opt->stage_count ? opt->stages[opt->stage].average_window : 0;
+  if (stage_window > 0 && stage_window < count) count = stage_window;
+  if (count == 0) {
     memcpy(out, opt->pi, k * sizeof(double));
     return;
   }
   for (size_t i = 0; i < k; ++i) out[i] = 0.0;
-  int32_t oldest = (opt->ring_head - opt->ring_count + opt->window) % opt->window;
-  for (int32_t j = 0; j < opt->ring_count; ++j) {
+  int32_t oldest = (opt->ring_head - count + opt->window) % opt->window;
+  for (int32_t j = 0; j < count; ++j) {
     const double *it = opt->ring + (size_t)((oldest + j) % opt->window) * k;
     for (size_t i = 0; i < k; ++i) out[i] += it[i];
   }
-  for (size_t i = 0; i < k; ++i) out[i] /= opt->ring_count;
+  for (size_t i = 0; i < k; ++i) out[i] /= count;
 }
 
 HETINV_API hetinv_result_t hetinv_optimizer_get_pi(const hetinv_optimizer_t *optimizer,

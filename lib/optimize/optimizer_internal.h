@@ -18,6 +18,7 @@ typedef struct hv_stage {
   uint8_t *frozen;     /* k bytes or NULL */
   uint8_t *value_mask; /* value_count bytes or NULL */
   double epsilon_start; /* ADADELTA's ε at the stage's start (falls to the tunable); 0 = the tunable */
+  int32_t average_window; /* the trailing iterates its result averages (at most the ring's); 0 = the ring's */
 } hv_stage_t;
 
 /* Rows of the set grouped by emitter (in order of first use):

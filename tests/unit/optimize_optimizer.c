@@ -183,6 +183,7 @@ typedef struct setup {
   int32_t iterations[2];
   double method, minibatch, window, interval;
   double epsilon_start[2]; /* each stage's ε at its start; 0 = the tunable */
+  int32_t stage_window[2];  /* each stage's averaging window; 0 = the tunable */
 } setup_t;
 
 /* One coarse stage of 8 iterations, ADADELTA, every emitter, window 3. */
@@ -204,7 +205,8 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const setup_t *s) {
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, s->window);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, s->interval);
   for (int i = 0; r == HETINV_SUCCESS && i < s->stages; ++i) {
-    hetinv_stage_t st = {sizeof st, s->maps[i], s->iterations[i], NULL, NULL, s->epsilon_start[i]};
+    hetinv_stage_t st = {sizeof st, s->maps[i], s->iterations[i], NULL, NULL, s->epsilon_start[i],
+                         s->stage_window[i]};
     r = hetinv_optimizer_add_stage(opt, &st);
   }
   return r;
@@ -415,7 +417,7 @@ static void configuration_is_frozen_once_run(void **state) {
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 3));
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 0, 5));
   assert_message_contains("sigma_s");
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0};
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_add_stage(opt, &st));
   double v = 0;
   assert_ok(hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, &v));
@@ -436,7 +438,7 @@ static void stage_and_create_errors(void **state) {
   hetinv_measurements_destroy(&empty);
 
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL, 0.0};
+  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL, 0.0, 0};
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
   assert_message_contains("size");
   st.size = sizeof st;
@@ -766,7 +768,7 @@ static void frozen_entries_never_move(void **state) {
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, SIGMA_HI));
   const uint8_t frozen[4] = {1, 0, 0, 1};
-  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL, 0.0};
+  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL, 0.0, 0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   pi_log_t *log = calloc(1, sizeof *log);
   log->opt = opt;
@@ -790,7 +792,7 @@ static void masked_values_give_no_gradient(void **state) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_METHOD, method));
     uint8_t *mask = calloc(p->count, 1);
-    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask, 0.0};
+    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask, 0.0, 0};
     assert_ok(hetinv_optimizer_add_stage(opt, &st));
     free(mask); /* copied */
     assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
@@ -869,7 +871,7 @@ static void stages_run_their_counts_with_right_progress(void **state) {
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 4));
-  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL, 0.0}, b = {sizeof b, p->identity, 0, NULL, NULL, 0.0};
+  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL, 0.0, 0}, b = {sizeof b, p->identity, 0, NULL, NULL, 0.0, 0};
   assert_ok(hetinv_optimizer_add_stage(opt, &a));
   assert_ok(hetinv_optimizer_add_stage(opt, &b));
   pi_log_t *log = calloc(1, sizeof *log);
@@ -913,7 +915,7 @@ static void iterations_default_is_100(void **state) {
   assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL, 0.0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL, 0.0, 0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   stopper_t s = {.stop_at = -1};
   assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &s));
@@ -938,7 +940,7 @@ static void a_plateau_ends_a_stage_early(void **state) {
   /* Tolerance 1: no decrease can beat it, so each stage ends after 2·window. */
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 3));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 1));
-  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL, 0.0}, b = {sizeof b, p->identity, 50, NULL, NULL, 0.0};
+  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL, 0.0, 0}, b = {sizeof b, p->identity, 50, NULL, NULL, 0.0, 0};
   assert_ok(hetinv_optimizer_add_stage(opt, &a));
   assert_ok(hetinv_optimizer_add_stage(opt, &b));
   pi_log_t *log = calloc(1, sizeof *log);
@@ -961,7 +963,7 @@ static void a_plateau_ends_a_stage_early(void **state) {
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 2));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 0));
   uint8_t *mask = calloc(p->count, 1);
-  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask, 0.0};
+  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask, 0.0, 0};
   assert_ok(hetinv_optimizer_add_stage(opt, &c));
   free(mask);
   assert_ok(hetinv_optimizer_run(opt, p->est, &why));
@@ -1042,11 +1044,12 @@ static void a_stage_epsilon_start_changes_only_the_first_half(void **state) {
   s.epsilon_start[0] = 0.05;
   reference_run(p, &s, 1, &o[2]);
   assert_true(memcmp(o[0].pi, o[2].pi, sizeof o[0].pi) != 0);
-  /* The first version's size: epsilon_start (0.05 here) is past it, unread. */
+  /* The first version's size: epsilon_start and average_window (0.05 and 5
+   * here) are past it, unread. */
   setup_t t = coarse_setup(p);
   t.stages = 0;
   hetinv_optimizer_t *opt = make_optimizer(p, &t);
-  hetinv_stage_t v1 = {HETINV_STAGE_SIZE_V1, p->coarse, 8, NULL, NULL, 0.05};
+  hetinv_stage_t v1 = {HETINV_STAGE_SIZE_V1, p->coarse, 8, NULL, NULL, 0.05, 5};
   assert_ok(hetinv_optimizer_add_stage(opt, &v1));
   assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
   capture(opt, 1, &o[3]);
@@ -1055,12 +1058,44 @@ static void a_stage_epsilon_start_changes_only_the_first_half(void **state) {
   const double bad[3] = {-0.01, 1.5, NAN};
   for (int i = 0; i < 3; ++i) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, bad[i]};
+    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, bad[i], 0};
     assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
     assert_message_contains("epsilon_start");
     hetinv_optimizer_destroy(&opt);
   }
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, -1};
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
+  assert_message_contains("average_window is -1");
+  hetinv_optimizer_destroy(&opt);
   free(o);
+}
+
+/* A stage's own window: the next stage starts from the average of its
+ * last 2 iterates under a tunable window of 3, and the run's result is the
+ * last stage's window (4 here, more than the ring's 3: acts as 3). */
+static void a_stage_window_sets_what_it_hands_on(void **state) {
+  const problem_t *p = *state;
+  setup_t s = two_stage_setup(p);
+  s.iterations[0] = 6;
+  s.stage_window[0] = 2;
+  s.stage_window[1] = 4;
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  pi_log_t *log = calloc(1, sizeof *log);
+  log->opt = opt;
+  assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_int_equal(log->count, 10);
+  assert_close(log->avg[5][0], (log->pi[4][0] + log->pi[5][0]) / 2, 1e-12);
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_optimizer_result(opt, &m));
+  for (int j = 0; j < 4; ++j) {
+    double expect = (log->pi[7][j] + log->pi[8][j] + log->pi[9][j]) / 3;
+    assert_close(hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S)[j], expect, 1e-12);
+  }
+  hetinv_medium_destroy(&m);
+  free(log);
+  hetinv_optimizer_destroy(&opt);
 }
 
 static void the_next_stage_starts_from_the_average(void **state) {
@@ -1779,7 +1814,7 @@ static void layerwise_stages_free_one_layer_each(void **state) {
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, 1));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 0.05));
   /* A first coarse stage, then three layers of 1/3 mm. */
-  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL, 0.0};
+  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL, 0.0, 0};
   assert_ok(hetinv_optimizer_add_stage(opt, &first));
   const double h = 1.0 / 3;
   assert_ok(hetinv_optimizer_add_layerwise_stages(opt, p.identity, h, 3, 4));
@@ -1865,7 +1900,7 @@ static void null_arguments_are_refused(void **state) {
   s.iterations[0] = 1;
   opt = make_optimizer(p, &s);
   double v = 0, pi[1];
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0};
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_set_param(NULL, HETINV_OPTIMIZER_DECAY, 0.5));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(NULL, HETINV_OPTIMIZER_DECAY, &v));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, NULL));
@@ -1939,6 +1974,7 @@ int main(void) {
       cmocka_unit_test(the_callback_stops_and_run_continues),
       cmocka_unit_test(the_next_stage_starts_from_the_average),
       cmocka_unit_test(a_stage_epsilon_start_changes_only_the_first_half),
+      cmocka_unit_test(a_stage_window_sets_what_it_hands_on),
       cmocka_unit_test(killed_runs_resume_bitwise),
       cmocka_unit_test(resume_refuses_another_configuration),
       cmocka_unit_test(damaged_checkpoints_are_refused),

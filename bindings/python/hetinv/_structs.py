@@ -131,6 +131,7 @@ class Stage(_Sized):
         ("frozen", ctypes.POINTER(ctypes.c_uint8)),
         ("value_mask", ctypes.POINTER(ctypes.c_uint8)),
         ("epsilon_start", ctypes.c_double),
+        ("average_window", ctypes.c_int32),
     ]
 
 

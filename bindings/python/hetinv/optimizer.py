@@ -102,17 +102,21 @@ class Optimizer(Handle):
                                        number(hi, "hi")))
         return self
 
-    def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None, epsilon_start=0.0):
+    def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None, epsilon_start=0.0,
+                  average_window=0):
         """Append a stage on `param_map`. frozen: param_map.size flags
         (true = entry kept fixed); value_mask: value_count flags (false =
         value left out). iterations 0: the "iterations" tunable. epsilon_start:
         ADADELTA's relative epsilon at the stage's start, falling linearly to
-        the "epsilon" tunable over its first half; 0: the tunable throughout."""
+        the "epsilon" tunable over its first half; 0: the tunable throughout.
+        average_window: the trailing iterates the stage's result averages
+        (at most the "average_window" tunable); 0: that tunable."""
         me = self._ptr
         handle_arg(param_map, ParamMap, "param_map")
         f = _mask_bytes(frozen, param_map.size, "frozen")
         m = _mask_bytes(value_mask, self._measurements.value_count, "value_mask")
-        stage = _structs_stage(param_map, integer(iterations, "iterations"), f, m, number(epsilon_start, "epsilon_start"))
+        stage = _structs_stage(param_map, integer(iterations, "iterations"), f, m, number(epsilon_start, "epsilon_start"),
+                               integer(average_window, "average_window"))
         check(lib.optimizer_add_stage(me, ctypes.byref(stage)))
         self._borrow(param_map)
         self._maps.append(param_map)
@@ -237,7 +241,7 @@ class Optimizer(Handle):
         return _arrays.copy_from(ptr, n.value if ptr else 0)
 
 
-def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start):
+def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start, average_window):
     from ._structs import Stage
 
     s = Stage()
@@ -246,4 +250,5 @@ def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start):
     s.frozen = frozen.ptr
     s.value_mask = value_mask.ptr
     s.epsilon_start = epsilon_start
+    s.average_window = average_window
     return s
