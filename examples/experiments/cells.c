@@ -39,6 +39,10 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " epsilon=%.17g", sc->epsilon);
   }
+  if (sc->coarse_average_window != 0) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " coarse_average_window=%d", (int)sc->coarse_average_window);
+  }
   if (sc->epsilon_start != 0.0) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " epsilon_start=%.17g", sc->epsilon_start);

@@ -8,6 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
+ *               [--coarse-window N]
  *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -56,7 +57,10 @@
  * ADADELTA's ε (default 0.003, 0.0015 with --full), the scale of its
  * steps once the gradient is mostly noise; --epsilon-start E starts the
  * finest stage at that ε, falling linearly to --epsilon's by its middle
- * (optimizer.epsilon_start); --decay D its running means'
+ * (optimizer.epsilon_start); --coarse-window N makes each coarse stage hand
+ * on the mean of its last N iterates (optimizer.coarse_average_window;
+ * otherwise the run's window, which at full size is longer than a coarse
+ * stage, so it hands on the mean of its whole path); --decay D its running means'
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
  * as (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of
  * the loss and the bound every value whose standard error exceeds
@@ -94,6 +98,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
+          "                   [--coarse-window N]\n"
           "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -452,6 +457,7 @@ int main(int argc, char **argv) {
   double scale = -1.0, epsilon = -1.0, min_snr = -1.0;
   int coordinates = -1;
   double decay = -1.0, epsilon_start = -1.0;
+  int64_t coarse_window = -1;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -521,6 +527,9 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--epsilon-start") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &epsilon_start) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--coarse-window") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 4096, &coarse_window) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--decay") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &decay) < 0) return 2;
       ++i;
@@ -588,6 +597,7 @@ int main(int argc, char **argv) {
       if (coordinates >= 0) sc.coordinates = coordinates;
       if (decay >= 0.0) sc.decay = decay;
       if (epsilon_start > 0.0) sc.epsilon_start = epsilon_start;
+      if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);

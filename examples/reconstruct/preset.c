@@ -152,7 +152,9 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   put_number(f, sc->decay);
   fprintf(f, ",\n                \"learning_rate\": ");
   put_number(f, sc->learning_rate);
-  fprintf(f, ", \"average_window\": %d, \"time_budget\": ", (int)sc->average_window);
+  fprintf(f, ", \"average_window\": %d, ", (int)sc->average_window);
+  if (sc->coarse_average_window > 0) fprintf(f, "\"coarse_average_window\": %d, ", (int)sc->coarse_average_window);
+  fprintf(f, "\"time_budget\": ");
   put_number(f, sc->time_budget);
   fprintf(f, ",\n");
   fprintf(f, "                \"bounds\": {");

@@ -180,7 +180,10 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
     r = hetinv_param_map_create_coarse(init, cells, HETINV_FREE_ALL, &maps[l]);
     bool finest = l + 1 == sc->level_count;
     int64_t it = finest ? sc->iterations : (int64_t)ceil(sc->coarse_fraction * (double)sc->iterations);
-    hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL, finest ? sc->epsilon_start : 0.0};
+    /* A coarse stage hands on the mean of its last coarse_average_window
+     * iterates; 0: of the run's window (its whole path if that is longer). */
+    hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL, finest ? sc->epsilon_start : 0.0,
+                            finest ? 0 : sc->coarse_average_window};
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_stage(opt, &stage);
   }
   progress_line_t pl = {.quiet = quiet, .tty = isatty(2) != 0};
