@@ -8,7 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
- *               [--coarse-window N]
+ *               [--coarse-window N] [--loss-clip C]
  *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -30,7 +30,9 @@
  * DIR/config<c>_volume<v>/cell.csv with its errors, time and a key of
  * every setting it depends on; a rerun with the same settings reads it
  * back instead of recomputing, and an interrupted cell continues from its
- * checkpoint. Delete a cell's folder to recompute it.
+ * checkpoint. Delete a cell's folder to recompute it. A cell folder whose
+ * checkpoint was written under other settings (DIR/.../checkpoint.key) is
+ * refused rather than resumed.
  *
  * --write-scenes writes every selected cell's set-up as files instead
  * (DIR/config<c>_volume<v>/scene/{render.json, truth_*.vol,
@@ -60,7 +62,10 @@
  * (optimizer.epsilon_start); --coarse-window N makes each coarse stage hand
  * on the mean of its last N iterates (optimizer.coarse_average_window;
  * otherwise the run's window, which at full size is longer than a coarse
- * stage, so it hands on the mean of its whole path); --decay D its running means'
+ * stage, so it hands on the mean of its whole path); --loss-clip C makes
+ * the loss Huber's, each value's residual counting linearly beyond C of its
+ * standard errors (estimator.loss_clip; default 0, least squares);
+ * --decay D its running means'
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
  * as (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of
  * the loss and the bound every value whose standard error exceeds
@@ -98,7 +103,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-window N]\n"
+          "                   [--coarse-window N] [--loss-clip C]\n"
           "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -458,6 +463,7 @@ int main(int argc, char **argv) {
   int coordinates = -1;
   double decay = -1.0, epsilon_start = -1.0;
   int64_t coarse_window = -1;
+  double loss_clip = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -530,6 +536,9 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--coarse-window") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, 4096, &coarse_window) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--loss-clip") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &loss_clip) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--decay") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &decay) < 0) return 2;
       ++i;
@@ -598,6 +607,7 @@ int main(int argc, char **argv) {
       if (decay >= 0.0) sc.decay = decay;
       if (epsilon_start > 0.0) sc.epsilon_start = epsilon_start;
       if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
+      if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);
@@ -633,6 +643,10 @@ int main(int argc, char **argv) {
       experiment_cell_key(&sc, key, sizeof key);
       experiment_cell_t cell;
       bool reused = experiment_cell_load(sc.output, key, &cell);
+      if (!reused && experiment_checkpoint_claim(sc.output, key, msg, sizeof msg) != 0) {
+        fprintf(stderr, "hetinv-fig4: %s\n", msg);
+        return 1;
+      }
       if (!reused && run_cell(&sc, threads, quiet, &cell) != 0) return 1;
       if (!reused && experiment_cell_store(sc.output, key, &cell) != 0) {
         fprintf(stderr, "hetinv-fig4: %s/cell.csv: %s\n", sc.output, strerror(errno));

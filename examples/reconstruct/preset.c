@@ -137,7 +137,12 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   fprintf(f, "},\n");
   fprintf(f, "  \"truth\": {\"vol\": {\"sigma_a\": \"truth_sigma_a.vol\", \"sigma_s\": \"truth_sigma_s.vol\", "
              "\"g\": \"truth_g.vol\"}},\n");
-  fprintf(f, "  \"estimator\": {\"photons\": %lld, \"batches\": %d},\n", (long long)sc->photons, (int)sc->batches);
+  fprintf(f, "  \"estimator\": {\"photons\": %lld, \"batches\": %d", (long long)sc->photons, (int)sc->batches);
+  if (sc->loss_clip > 0.0) {
+    fprintf(f, ", \"loss_clip\": ");
+    put_number(f, sc->loss_clip);
+  }
+  fprintf(f, "},\n");
   fprintf(f, "  \"optimizer\": {\"method\": \"%s\", \"coordinates\": \"%s\", \"iterations\": %lld,\n",
           recon_method_names[sc->method], recon_coordinate_names[sc->coordinates], (long long)sc->iterations);
   fprintf(f, "                \"coarse_fraction\": ");

@@ -96,6 +96,7 @@ typedef struct recon_scene {
   /* Estimator during optimisation. */
   int64_t photons;
   int32_t batches;
+  double loss_clip; /* Huber's clip in standard errors (HETINV_ESTIMATOR_LOSS_CLIP); 0: least squares */
   /* Optimizer. */
   int method;
   int coordinates; /* enum hetinv_coordinates_id */

@@ -199,6 +199,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)sc->photons);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, sc->batches);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_LOSS_CLIP, sc->loss_clip);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_gain_mode(est, sc->gain_mode);
   hetinv_stop_reason_t why = HETINV_STOP_NONE;
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_run(opt, est, &why);

@@ -80,7 +80,16 @@ enum hetinv_estimator_param_id {
   /** Epoch (default 0; integer in [0, 2^53]): mixed into the context's seed,
    *  so an optimiser can draw fresh paths at every iteration. */
   HETINV_ESTIMATOR_EPOCH = 7,
-  HETINV_ESTIMATOR_PARAM_COUNT_ = 8 /**< not a parameter: one past the last */
+  /** Robust loss of hetinv_estimator_loss_gradient() (default 0; a number in
+   *  [0, 1e6]). A value n of weight w and residual r = I − Ī contributes
+   *  w·r² while √w·|r| ≤ c, and 2·c·√w·|r| − c² beyond (Huber's loss, with c
+   *  in standard errors when w is 1/variance), so its cotangent is clipped
+   *  at ±2·c·√w. 0 keeps least squares (Eq. 9). For Monte Carlo data whose
+   *  dim values have heavy-tailed errors (a rare path hundreds of times the
+   *  value), where 1/variance from the data's own batch means trusts such a
+   *  value far too much. */
+  HETINV_ESTIMATOR_LOSS_CLIP = 8,
+  HETINV_ESTIMATOR_PARAM_COUNT_ = 9 /**< not a parameter: one past the last */
 };
 
 /**
@@ -262,6 +271,11 @@ HETINV_API hetinv_result_t hetinv_estimator_jvp(hetinv_estimator_t *estimator,
  * Σ_n mask_n·w_n·(I_n − Ī_n)² with the set's measured values Ī, weights w
  * and mask, then estimates its gradient from independent paths of stream
  * (s + 1) mod 65536, with cotangent 2·mask·w·(I − Ī) (Eqs. 21–22).
+ * With HETINV_ESTIMATOR_LOSS_CLIP c > 0 each term is Huber's instead: w·r²
+ * for √w·|r| ≤ c, 2·c·√w·|r| − c² beyond, and its cotangent
+ * 2·mask·w·r clipped at ±2·mask·c·√w. The clipped cotangent is a nonlinear
+ * function of the render, so the gradient is that of the expected Huber
+ * term only where the render's error stays within the clip.
  * With a calibration gain (hetinv_estimator_set_gain_mode()) the model is
  * k·I: the loss is min over k of Σ_n mask_n·w_n·(k_n·I_n − Ī_n)², k_n the
  * gain of value n's emitter (or the one global gain), and the cotangent
@@ -323,6 +337,9 @@ enum hetinv_gain_mode_id {
  * not positive (photons so few that the render is noise) Σ mask·w·I² is
  * used; k* = 0 when no used value renders any light. A negative fit
  * (noise only) is clamped to 0, the least-squares gain among physical ones.
+ *
+ * The gain is fitted by least squares even under HETINV_ESTIMATOR_LOSS_CLIP;
+ * the clip then applies to the residuals k*·I − Ī.
  *
  * Gradient: k* minimises the expected L(k, π), so (envelope theorem) the
  * gradient of L(k*(π), π) with respect to π is ∂L/∂π at fixed k = k*:

@@ -22,6 +22,7 @@ static const struct {
                                         HETINV_ESTIMATOR_DEFAULT_MAX_SCATTERING, true},
     [HETINV_ESTIMATOR_STREAM] = {"HETINV_ESTIMATOR_STREAM", 0, 65535, 0, true},
     [HETINV_ESTIMATOR_EPOCH] = {"HETINV_ESTIMATOR_EPOCH", 0, 9007199254740992.0 /* 2^53 */, 0, true},
+    [HETINV_ESTIMATOR_LOSS_CLIP] = {"HETINV_ESTIMATOR_LOSS_CLIP", 0, 1e6, 0, false},
 };
 
 const char *hv_estimator_param_name(hetinv_estimator_param_t param) {

@@ -16,6 +16,8 @@
 
 #include "core/alloc.h"
 #include "core/error.h"
+#include "estimator/estimator_internal.h"
+#include "estimator/loss_term.h"
 #include "sampling/measurements_internal.h"
 
 HETINV_API hetinv_result_t hetinv_estimator_set_gain_mode(hetinv_estimator_t *estimator,
@@ -122,16 +124,16 @@ hetinv_result_t hv_gain_fit(hetinv_estimator_t *est, const hv_pass_t *pass,
   /* k* minimises L(k, π), so by the envelope theorem the gradient of
    * L(k*(π), π) is ∂L/∂π at k = k*: the cotangent 2·m·w·k·(k·I − Ī), with
    * no term through the dependence of k* on π. */
+  const double clip = est->param[HETINV_ESTIMATOR_LOSS_CLIP];
   double sum = 0.0;
   for (int32_t e = 0; e < plans->count; ++e) {
     const hv_plan_t *plan = &plans->plan[e];
     double k = est->gains[global ? 0 : e];
     for (int32_t i = 0; i < plan->range_count; ++i) {
       for (size_t n = plan->range_lo[i]; n < plan->range_hi[i]; ++n) {
-        double r = k * values[n] - set->values[n];
-        double wr = set->mask[n] ? set->weights[n] * r : 0.0;
-        sum += wr * r;
-        cot[n] = 2.0 * k * wr;
+        double w = set->mask[n] ? set->weights[n] : 0.0, slope;
+        sum += hv_loss_term(w, k * values[n] - set->values[n], clip, &slope);
+        cot[n] = k * slope;
       }
     }
   }

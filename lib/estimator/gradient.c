@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "estimator/batches.h"
 #include "estimator/gain.h"
+#include "estimator/loss_term.h"
 #include "estimator/pass.h"
 #include "estimator/record.h"
 #include "hetinv/param.h"
@@ -330,10 +331,10 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
     if (r == HETINV_SUCCESS && gain) {
       r = hv_gain_fit(estimator, &pass, set, values, se, cot, &sum);
     } else if (r == HETINV_SUCCESS) {
+      const double clip = estimator->param[HETINV_ESTIMATOR_LOSS_CLIP];
       for (size_t i = 0; i < n; ++i) {
-        double res = set->mask[i] ? set->weights[i] * (values[i] - set->values[i]) : 0.0;
-        sum += res * (values[i] - set->values[i]);
-        cot[i] = 2.0 * res;
+        double w = set->mask[i] ? set->weights[i] : 0.0;
+        sum += hv_loss_term(w, values[i] - set->values[i], clip, &cot[i]);
       }
     }
     if (r == HETINV_SUCCESS) {

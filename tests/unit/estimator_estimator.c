@@ -170,6 +170,8 @@ static void new_estimator_has_the_documented_defaults(void **state) {
   assert_true(v == 0);
   assert_ok(hetinv_estimator_get_param(est, HETINV_ESTIMATOR_EPOCH, &v));
   assert_true(v == 0);
+  assert_ok(hetinv_estimator_get_param(est, HETINV_ESTIMATOR_LOSS_CLIP, &v));
+  assert_true(v == 0);
   hetinv_estimator_destroy(&est);
   assert_null(est);
 }
@@ -193,6 +195,8 @@ static void param_bounds_are_the_documented_ranges(void **state) {
   assert_true(lo == 0 && hi == 65535);
   assert_ok(hetinv_estimator_param_bounds(HETINV_ESTIMATOR_EPOCH, &lo, &hi));
   assert_true(lo == 0 && hi == 9007199254740992.0); /* 2^53 */
+  assert_ok(hetinv_estimator_param_bounds(HETINV_ESTIMATOR_LOSS_CLIP, &lo, &hi));
+  assert_true(lo == 0 && hi == 1e6);
 }
 
 static void defaults_lie_within_the_bounds(void **state) {
@@ -250,6 +254,7 @@ static void set_param_round_trips_every_param(void **state) {
   values[HETINV_ESTIMATOR_MAX_SCATTERING] = 9;
   values[HETINV_ESTIMATOR_STREAM] = 65535;
   values[HETINV_ESTIMATOR_EPOCH] = 123456789;
+  values[HETINV_ESTIMATOR_LOSS_CLIP] = 2.5;
   for (hetinv_estimator_param_t p = 0; p < HETINV_ESTIMATOR_PARAM_COUNT_; ++p) {
     assert_ok(hetinv_estimator_set_param(est, p, values[p]));
   }

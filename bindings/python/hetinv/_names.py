@@ -14,7 +14,8 @@ FREE_SIGMA_A, FREE_SIGMA_S, FREE_G = 1, 2, 4
 FREE_ALL = 7
 
 ESTIMATOR_PARAMS = {"photons": 0, "batches": 1, "roulette_weight": 2, "roulette_survival": 3,
-                    "min_scattering": 4, "max_scattering": 5, "stream": 6, "epoch": 7}
+                    "min_scattering": 4, "max_scattering": 5, "stream": 6, "epoch": 7,
+                    "loss_clip": 8}
 
 GAIN_NONE, GAIN_GLOBAL, GAIN_PER_EMITTER = 0, 1, 2
 GAIN_MODES = {"none": 0, "global": 1, "per_emitter": 2}

@@ -59,7 +59,7 @@ def estimator_param_bounds(param):
 class Estimator(Handle):
     """hetinv_estimator_t. Tunables as keywords or via set_param/get_param:
     photons, batches, roulette_weight, roulette_survival, min_scattering,
-    max_scattering, stream, epoch.
+    max_scattering, stream, epoch, loss_clip (Huber's loss of loss_gradient).
 
         est = hetinv.Estimator(ctx, photons=20000)
         r = est.render(medium, measurements)   # r.values, r.std_errors, r.ballistic

@@ -1,0 +1,237 @@
+/* Huber's loss of hetinv_estimator_loss_gradient()
+ * (HETINV_ESTIMATOR_LOSS_CLIP): 0 is least squares bit for bit; with a clip
+ * c each value's term is w·r² within c standard errors and 2·c·√w·|r| − c²
+ * beyond, and the gradient is exactly hetinv_estimator_gradient() on the
+ * next stream with the clipped cotangent; the same under a fitted gain; and
+ * the tunable's errors. The checks are exact on one random stream: the
+ * loss's render is the `rendered` output, so the terms are known to
+ * rounding. */
+#include <math.h>
+#include <stdio.h>
+
+#include "test_support.h"
+
+enum { VALUES = 5 };
+
+typedef struct scene {
+  hetinv_context_t *ctx;
+  hetinv_medium_t *medium;
+  hetinv_emitter_t *beam;
+  hetinv_sensor_t *ortho, *transmit;
+  hetinv_pathlength_t *steady;
+  hetinv_measurements_t *set;
+  hetinv_param_map_t *map;
+  hetinv_estimator_t *est;
+  size_t k;
+} scene_t;
+
+/* Rows: a 2 × 2 orthographic camera on the lit face, then transmission. */
+static void scene_init(scene_t *s) {
+  *s = (scene_t){0};
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.thread_count = 2;
+  init.seed = 5;
+  assert_ok(hetinv_context_create(&init, &s->ctx));
+  assert_ok(hetinv_medium_create(s->ctx, (double[]){0, 0, 0}, (double[]){10, 10, 10},
+                                 (int32_t[]){2, 2, 2}, &s->medium));
+  assert_ok(hetinv_medium_fill(s->medium, 0.05, 0.5, 0.3));
+  assert_ok(hetinv_medium_set_voxel(s->medium, 0, 1, 1, 0.1, 1.2, 0.5));
+  assert_ok(hetinv_medium_commit(s->medium));
+  assert_ok(hetinv_emitter_create_ideal(s->medium, (double[]){4, 3, -1}, (double[]){0, 0, 1}, &s->beam));
+  assert_ok(hetinv_sensor_create_orthographic(s->medium, HETINV_FACE_Z_MIN, (double[]){0, 0, -1},
+                                              (double[]){0, 0}, (double[]){5, 5}, 2, 2, &s->ortho));
+  assert_ok(hetinv_sensor_create_hemispherical(s->medium, HETINV_FACE_Z_MAX, NULL, NULL, &s->transmit));
+  assert_ok(hetinv_pathlength_create_steady(s->ctx, &s->steady));
+  assert_ok(hetinv_measurements_create(s->ctx, &s->set));
+  assert_ok(hetinv_measurements_add(s->set, s->beam, s->ortho, s->steady, NULL));
+  assert_ok(hetinv_measurements_add(s->set, s->beam, s->transmit, s->steady, NULL));
+  assert_int_equal(hetinv_measurements_value_count(s->set), VALUES);
+  assert_ok(hetinv_param_map_create_identity(s->medium, HETINV_FREE_ALL, &s->map));
+  s->k = hetinv_param_map_size(s->map);
+  assert_ok(hetinv_estimator_create(s->ctx, &s->est));
+  assert_ok(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_PHOTONS, 1000));
+  assert_ok(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_BATCHES, 16));
+  assert_ok(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_STREAM, 21));
+}
+
+static void scene_release(scene_t *s) {
+  hetinv_estimator_destroy(&s->est);
+  hetinv_param_map_destroy(&s->map);
+  hetinv_measurements_destroy(&s->set);
+  hetinv_pathlength_destroy(&s->steady);
+  hetinv_sensor_destroy(&s->ortho);
+  hetinv_sensor_destroy(&s->transmit);
+  hetinv_emitter_destroy(&s->beam);
+  hetinv_medium_destroy(&s->medium);
+  hetinv_context_destroy(&s->ctx);
+}
+
+static void assert_close(double expect, double got, double tol) {
+  if (!(fabs(expect - got) <= tol)) {
+    print_error("expected %.17g, got %.17g (tolerance %g)\n", expect, got, tol);
+    fail();
+  }
+}
+
+/* Measured values around a render of the loss's stream, with weights
+ * 1/σ² for σ a tenth of each value: values 1 and 3 sit 2σ off (inside a
+ * clip of 3), value 0 sits 40σ high and value 4 60σ low (outside it). */
+static void set_measured(scene_t *s, double *m, double *w) {
+  double r[VALUES];
+  assert_ok(hetinv_estimator_render(s->est, s->medium, s->set, r, NULL, NULL, VALUES));
+  static const double off[VALUES] = {-40.0, 2.0, 0.0, -2.0, 60.0};
+  for (int n = 0; n < VALUES; ++n) {
+    assert_true(r[n] > 0.0);
+    double sigma = 0.1 * r[n];
+    m[n] = r[n] + off[n] * sigma; /* residual I − Ī = −off·σ */
+    w[n] = 1.0 / (sigma * sigma);
+  }
+  assert_ok(hetinv_measurements_set_values(s->set, m, NULL, VALUES));
+  assert_ok(hetinv_measurements_set_weights(s->set, w, VALUES));
+}
+
+/* Huber's term of weight w, residual r, clip c, and its slope. */
+static double huber(double w, double r, double c, double *slope) {
+  double z = sqrt(w) * r; /* the residual in standard errors */
+  if (fabs(z) <= c) {
+    *slope = 2.0 * w * r;
+    return w * r * r;
+  }
+  *slope = (z > 0 ? 2.0 : -2.0) * c * sqrt(w);
+  return 2.0 * c * fabs(z) - c * c;
+}
+
+static void default_is_zero_and_zero_is_least_squares_bit_for_bit(void **state) {
+  (void)state;
+  scene_t s;
+  scene_init(&s);
+  double clip = -1.0;
+  assert_ok(hetinv_estimator_get_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, &clip));
+  assert_true(clip == 0.0);
+  double m[VALUES], w[VALUES];
+  set_measured(&s, m, w);
+  double loss0, loss1, g0[24], g1[24], ren[VALUES];
+  assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss0, ren, g0, s.k));
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, 3.0));
+  assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss1, NULL, g1, s.k));
+  assert_true(loss1 < loss0); /* the two outliers now count linearly */
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, 0.0));
+  assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss1, NULL, g1, s.k));
+  assert_memory_equal(&loss0, &loss1, sizeof loss0);
+  assert_memory_equal(g0, g1, sizeof g0);
+  double expect = 0.0;
+  for (int n = 0; n < VALUES; ++n) expect += w[n] * (ren[n] - m[n]) * (ren[n] - m[n]);
+  assert_close(expect, loss0, 1e-13 * expect);
+  scene_release(&s);
+}
+
+/* The loss is Σ Huber terms of the render, and the gradient is exactly
+ * hetinv_estimator_gradient() on stream s + 1 with their slopes: the
+ * outliers' cotangents are ±2·c·√w, the others 2·w·r. */
+static void clipped_loss_and_gradient_are_the_huber_terms(void **state) {
+  (void)state;
+  scene_t s;
+  scene_init(&s);
+  double m[VALUES], w[VALUES];
+  set_measured(&s, m, w);
+  const double c = 3.0;
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, c));
+  double loss, ren[VALUES], grad[24];
+  assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss, ren, grad, s.k));
+  double expect = 0.0, cot[VALUES];
+  int clipped = 0;
+  for (int n = 0; n < VALUES; ++n) {
+    expect += huber(w[n], ren[n] - m[n], c, &cot[n]);
+    clipped += fabs(cot[n]) < fabs(2.0 * w[n] * (ren[n] - m[n]));
+  }
+  assert_int_equal(clipped, 2);
+  assert_close(expect, loss, 1e-12 * expect);
+  double direct[24];
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_STREAM, 22));
+  assert_ok(hetinv_estimator_gradient(s.est, s.medium, s.set, cot, VALUES, s.map, direct, NULL, s.k));
+  for (size_t i = 0; i < s.k; ++i) assert_close(direct[i], grad[i], 1e-12 * fabs(direct[i]) + 1e-300);
+  scene_release(&s);
+}
+
+/* A masked outlier enters neither the loss nor the gradient, clip or not. */
+static void masked_values_stay_out(void **state) {
+  (void)state;
+  scene_t s;
+  scene_init(&s);
+  double m[VALUES], w[VALUES];
+  set_measured(&s, m, w);
+  uint8_t mask[VALUES] = {0, 1, 1, 1, 0};
+  assert_ok(hetinv_measurements_set_mask(s.set, mask, VALUES));
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, 3.0));
+  double clipped, plain, g0[24], g1[24];
+  assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &clipped, NULL, g0, s.k));
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, 0.0));
+  assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &plain, NULL, g1, s.k));
+  /* The used values are all within the clip: the two losses agree. */
+  assert_close(plain, clipped, 1e-13 * plain);
+  for (size_t i = 0; i < s.k; ++i) assert_close(g1[i], g0[i], 1e-13 * fabs(g1[i]) + 1e-300);
+  scene_release(&s);
+}
+
+/* Under a fitted global gain the gain is still least squares, and the
+ * terms and cotangents are Huber's at residual k·I − Ī (cotangent k·slope). */
+static void clip_applies_to_the_residuals_at_the_fitted_gain(void **state) {
+  (void)state;
+  scene_t s;
+  scene_init(&s);
+  double m[VALUES], w[VALUES];
+  set_measured(&s, m, w);
+  assert_ok(hetinv_estimator_set_gain_mode(s.est, HETINV_GAIN_GLOBAL));
+  double plain_loss, grad[24], k_plain, k;
+  assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &plain_loss, NULL, grad, s.k));
+  assert_ok(hetinv_estimator_get_gains(s.est, &k_plain, 1, NULL));
+  const double c = 3.0;
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, c));
+  double loss, ren[VALUES];
+  assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss, ren, grad, s.k));
+  assert_ok(hetinv_estimator_get_gains(s.est, &k, 1, NULL));
+  assert_memory_equal(&k, &k_plain, sizeof k); /* the fit does not see the clip */
+  double expect = 0.0, cot[VALUES];
+  for (int n = 0; n < VALUES; ++n) {
+    double slope;
+    expect += huber(w[n], k * ren[n] - m[n], c, &slope);
+    cot[n] = k * slope;
+  }
+  assert_close(expect, loss, 1e-12 * expect);
+  assert_true(loss < plain_loss);
+  double direct[24];
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_STREAM, 22));
+  assert_ok(hetinv_estimator_gradient(s.est, s.medium, s.set, cot, VALUES, s.map, direct, NULL, s.k));
+  for (size_t i = 0; i < s.k; ++i) assert_close(direct[i], grad[i], 1e-12 * fabs(direct[i]) + 1e-300);
+  scene_release(&s);
+}
+
+static void bad_clips_get_precise_errors(void **state) {
+  (void)state;
+  scene_t s;
+  scene_init(&s);
+  double lo = -1, hi = -1;
+  assert_ok(hetinv_estimator_param_bounds(HETINV_ESTIMATOR_LOSS_CLIP, &lo, &hi));
+  assert_true(lo == 0.0 && hi == 1e6);
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, -0.5));
+  assert_message_contains("HETINV_ESTIMATOR_LOSS_CLIP is -0.5; it must be a number in [0, 1000000]");
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, NAN));
+  assert_message_contains("HETINV_ESTIMATOR_LOSS_CLIP is nan");
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, 2e6));
+  double clip = -1;
+  assert_ok(hetinv_estimator_get_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, &clip));
+  assert_true(clip == 0.0); /* a refused value leaves the old one */
+  assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, 0.5)); /* not an integer: fine */
+  scene_release(&s);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(default_is_zero_and_zero_is_least_squares_bit_for_bit),
+      cmocka_unit_test(clipped_loss_and_gradient_are_the_huber_terms),
+      cmocka_unit_test(masked_values_stay_out),
+      cmocka_unit_test(clip_applies_to_the_residuals_at_the_fitted_gain),
+      cmocka_unit_test(bad_clips_get_precise_errors),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
