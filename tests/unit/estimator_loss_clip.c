@@ -9,62 +9,18 @@
 #include <math.h>
 #include <stdio.h>
 
-#include "test_support.h"
+#include "small_scene.h"
 
-enum { VALUES = 5 };
+enum { VALUES = SMALL_SCENE_VALUES };
 
-typedef struct scene {
-  hetinv_context_t *ctx;
-  hetinv_medium_t *medium;
-  hetinv_emitter_t *beam;
-  hetinv_sensor_t *ortho, *transmit;
-  hetinv_pathlength_t *steady;
-  hetinv_measurements_t *set;
-  hetinv_param_map_t *map;
-  hetinv_estimator_t *est;
-  size_t k;
-} scene_t;
+typedef small_scene_t scene_t;
 
-/* Rows: a 2 × 2 orthographic camera on the lit face, then transmission. */
+/* The camera on the lit face and the transmittance: 5 values. */
 static void scene_init(scene_t *s) {
-  *s = (scene_t){0};
-  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
-  init.thread_count = 2;
-  init.seed = 5;
-  assert_ok(hetinv_context_create(&init, &s->ctx));
-  assert_ok(hetinv_medium_create(s->ctx, (double[]){0, 0, 0}, (double[]){10, 10, 10},
-                                 (int32_t[]){2, 2, 2}, &s->medium));
-  assert_ok(hetinv_medium_fill(s->medium, 0.05, 0.5, 0.3));
-  assert_ok(hetinv_medium_set_voxel(s->medium, 0, 1, 1, 0.1, 1.2, 0.5));
-  assert_ok(hetinv_medium_commit(s->medium));
-  assert_ok(hetinv_emitter_create_ideal(s->medium, (double[]){4, 3, -1}, (double[]){0, 0, 1}, &s->beam));
-  assert_ok(hetinv_sensor_create_orthographic(s->medium, HETINV_FACE_Z_MIN, (double[]){0, 0, -1},
-                                              (double[]){0, 0}, (double[]){5, 5}, 2, 2, &s->ortho));
-  assert_ok(hetinv_sensor_create_hemispherical(s->medium, HETINV_FACE_Z_MAX, NULL, NULL, &s->transmit));
-  assert_ok(hetinv_pathlength_create_steady(s->ctx, &s->steady));
-  assert_ok(hetinv_measurements_create(s->ctx, &s->set));
-  assert_ok(hetinv_measurements_add(s->set, s->beam, s->ortho, s->steady, NULL));
-  assert_ok(hetinv_measurements_add(s->set, s->beam, s->transmit, s->steady, NULL));
-  assert_int_equal(hetinv_measurements_value_count(s->set), VALUES);
-  assert_ok(hetinv_param_map_create_identity(s->medium, HETINV_FREE_ALL, &s->map));
-  s->k = hetinv_param_map_size(s->map);
-  assert_ok(hetinv_estimator_create(s->ctx, &s->est));
-  assert_ok(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_PHOTONS, 1000));
-  assert_ok(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_BATCHES, 16));
+  small_scene_init(s, 5, 16);
   assert_ok(hetinv_estimator_set_param(s->est, HETINV_ESTIMATOR_STREAM, 21));
 }
-
-static void scene_release(scene_t *s) {
-  hetinv_estimator_destroy(&s->est);
-  hetinv_param_map_destroy(&s->map);
-  hetinv_measurements_destroy(&s->set);
-  hetinv_pathlength_destroy(&s->steady);
-  hetinv_sensor_destroy(&s->ortho);
-  hetinv_sensor_destroy(&s->transmit);
-  hetinv_emitter_destroy(&s->beam);
-  hetinv_medium_destroy(&s->medium);
-  hetinv_context_destroy(&s->ctx);
-}
+static void scene_release(scene_t *s) { small_scene_release(s); }
 
 static void assert_close(double expect, double got, double tol) {
   if (!(fabs(expect - got) <= tol)) {
