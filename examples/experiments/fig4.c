@@ -266,6 +266,10 @@ static int print_fit_check(const recon_scene_t *sc, int64_t threads, int64_t pho
          "(%.0f %%): row %d (%s), data %.3g +- %.2g, the truth's render %.3g +- %.2g\n",
          100.0 * f.top10_share, 100.0 * f.worst.share, (int)f.worst.row, f.worst.bins ? "pathlength bins" : "steady",
          f.worst.data, f.worst.data_se, f.worst.render, f.worst.render_se);
+  printf("  the truth's render against the data: %zu / %zu / %zu of %zu values beyond %g / %g / %g standard "
+         "errors; those beyond %g hold %.1f %% of the truth's sum of squares\n",
+         f.beyond[0], f.beyond[1], f.beyond[2], f.values, FIT_CHECK_TAILS[0], FIT_CHECK_TAILS[1], FIT_CHECK_TAILS[2],
+         FIT_CHECK_TAILS[1], 100.0 * f.beyond10_share);
   fflush(stdout);
   return 0;
 }

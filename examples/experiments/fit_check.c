@@ -11,6 +11,24 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+const double FIT_CHECK_TAILS[3] = {3.0, 10.0, 100.0};
+
+/* fit_check_t.beyond and beyond10_share of a render against the data. */
+static void tails(const hetinv_measurements_t *set, const double *rendered, fit_check_t *out) {
+  size_t n = hetinv_measurements_value_count(set);
+  const double *data = hetinv_measurements_values(set), *w = hetinv_measurements_weights(set);
+  const uint8_t *mask = hetinv_measurements_mask(set);
+  double all = 0.0, far = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!mask[i] || !(w[i] > 0.0)) continue;
+    double z = sqrt(w[i]) * fabs(rendered[i] - data[i]);
+    for (int j = 0; j < 3; ++j) out->beyond[j] += z > FIT_CHECK_TAILS[j];
+    all += z * z;
+    if (z > FIT_CHECK_TAILS[1]) far += z * z;
+  }
+  out->beyond10_share = all > 0.0 ? far / all : 0.0;
+}
+
 /* A stream no optimizer iteration or simulated acquisition uses. */
 #define FIT_CHECK_STREAM 60000
 
@@ -136,6 +154,7 @@ int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, fit
     }
     out->difference_se = sqrt(var);
     find_worst(im.set, pt, pr, it, st, var, out);
+    tails(im.set, it, out);
   }
   if (r != HETINV_SUCCESS && msg[0] == '\0') {
     snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(ctx));

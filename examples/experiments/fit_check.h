@@ -30,7 +30,16 @@ typedef struct fit_check {
     double data, data_se, render, render_se;
   } worst;
   double top10_share; /* the ten largest shares together */
+  /* The truth's render against the data in standard errors,
+   * z = √w·(I − Ī): how many values lie beyond FIT_CHECK_TAILS[j], and
+   * the share of Σ w·(I − Ī)² those beyond 10 hold. What a robust loss
+   * (estimator.loss_clip) would clip at the truth. */
+  size_t beyond[3];
+  double beyond10_share;
 } fit_check_t;
+
+/* The thresholds of fit_check_t.beyond, in standard errors. */
+extern const double FIT_CHECK_TAILS[3];
 
 /* Simulates the scene's data (as its cell did), reads the recovery from
  * <scene->output>/recovered_<param>.vol and renders both at `photons` per
