@@ -1,7 +1,6 @@
 /* Finished experiment cells as small CSV files (cells.h). */
 #include "cells.h"
 
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -83,42 +82,6 @@ static FILE *open_keyed(const char *dir, const char *file, const char *key) {
     return NULL;
   }
   return f;
-}
-
-int experiment_checkpoint_claim(const char *dir, const char *key, char *msg, size_t msg_size) {
-  char path[1200], tmp[1220];
-  FILE *f = NULL;
-  snprintf(path, sizeof path, "%s/checkpoint.bin", dir);
-  FILE *checkpoint = fopen(path, "rb");
-  if (checkpoint != NULL) {
-    fclose(checkpoint);
-    snprintf(path, sizeof path, "%s/checkpoint.key", dir);
-    f = fopen(path, "r");
-    if (f != NULL) {
-      fclose(f);
-      f = open_keyed(dir, "checkpoint.key", key);
-      if (f == NULL) {
-        snprintf(msg, msg_size,
-                 "%s/checkpoint.bin was written by a run with other settings (their key is in %s); "
-                 "resuming it would mix the two: delete the folder to start over, or rerun with those settings",
-                 dir, path);
-        return -1;
-      }
-      fclose(f);
-    }
-  }
-  snprintf(path, sizeof path, "%s/checkpoint.key", dir);
-  f = recon_text_begin(path, tmp, sizeof tmp);
-  if (f == NULL) {
-    snprintf(msg, msg_size, "%s: %s", path, strerror(errno));
-    return -1;
-  }
-  fprintf(f, "key,%s\n", key);
-  if (recon_text_commit(f, tmp, path) != 0) {
-    snprintf(msg, msg_size, "%s: %s", path, strerror(errno));
-    return -1;
-  }
-  return 0;
 }
 
 bool experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell) {

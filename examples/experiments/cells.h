@@ -14,14 +14,6 @@ typedef struct experiment_cell {
   double seconds;   /* of the run that computed it */
 } experiment_cell_t;
 
-/* An interrupted cell continues from <dir>/checkpoint.bin, whose optimizer
- * state does not record every setting (the loss's clip, the photons, the
- * acquisition). So a cell's run first claims the folder: if a checkpoint
- * is there (interrupted or finished) and <dir>/checkpoint.key names another
- * key, -1 with a message (resuming would mix two runs); a checkpoint without a key file (written
- * before the file existed) is resumed. Then writes this key there. */
-int experiment_checkpoint_claim(const char *dir, const char *key, char *msg, size_t msg_size);
-
 /* The text that identifies what a cell computed: every scene field the
  * result depends on. A stored cell counts only if its key is equal. */
 void experiment_cell_key(const recon_scene_t *scene, char *key, size_t key_size);

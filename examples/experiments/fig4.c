@@ -30,9 +30,9 @@
  * DIR/config<c>_volume<v>/cell.csv with its errors, time and a key of
  * every setting it depends on; a rerun with the same settings reads it
  * back instead of recomputing, and an interrupted cell continues from its
- * checkpoint. Delete a cell's folder to recompute it. A cell folder whose
- * checkpoint was written under other settings (DIR/.../checkpoint.key) is
- * refused rather than resumed.
+ * checkpoint. Delete a cell's folder to recompute it. A checkpoint written
+ * under other data or estimator settings (the loss's clip among them) is
+ * refused by the library, naming the difference, rather than resumed.
  *
  * --write-scenes writes every selected cell's set-up as files instead
  * (DIR/config<c>_volume<v>/scene/{render.json, truth_*.vol,
@@ -647,10 +647,6 @@ int main(int argc, char **argv) {
       experiment_cell_key(&sc, key, sizeof key);
       experiment_cell_t cell;
       bool reused = experiment_cell_load(sc.output, key, &cell);
-      if (!reused && experiment_checkpoint_claim(sc.output, key, msg, sizeof msg) != 0) {
-        fprintf(stderr, "hetinv-fig4: %s\n", msg);
-        return 1;
-      }
       if (!reused && run_cell(&sc, threads, quiet, &cell) != 0) return 1;
       if (!reused && experiment_cell_store(sc.output, key, &cell) != 0) {
         fprintf(stderr, "hetinv-fig4: %s/cell.csv: %s\n", sc.output, strerror(errno));

@@ -368,7 +368,9 @@ HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optim
  *         HETINV_ERROR_CORRUPT_FILE (bad magic, truncated, checksum, too
  *         large, or a field the configured run cannot have: the message
  *         names the field, its value and the limit);
- *         HETINV_ERROR_UNSUPPORTED (another format version or byte order);
+ *         HETINV_ERROR_UNSUPPORTED (a format version other than 3, today's,
+ *         or 2, the one before HETINV_ESTIMATOR_LOSS_CLIP, which resumes
+ *         as least squares; or another byte order);
  *         HETINV_ERROR_INVALID_ARGUMENT (written by a differently configured
  *         optimizer; the message names what differs);
  *         HETINV_ERROR_INVALID_STATE (run started); HETINV_ERROR_OUT_OF_MEMORY.

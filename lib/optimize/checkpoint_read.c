@@ -12,6 +12,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <float.h>
+#include <stddef.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -31,6 +32,7 @@ typedef struct reader {
   const unsigned char *p;
   size_t len, at;
   bool short_read;
+  size_t older_format_less; /* bytes an older format's fingerprint lacks */
 } reader_t;
 
 static void get(reader_t *r, void *out, size_t n) {
@@ -379,11 +381,25 @@ static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckp
   if (rd->len < rd->at + 8 || hv_ckpt_fnv1a(HV_CKPT_FNV_OFFSET, rd->p, rd->len - 8) != stored_checksum(rd)) {
     return corrupt(rd, "damaged: its checksum does not match");
   }
-  if (tag != HV_CKPT_BYTE_ORDER_TAG || version != HV_CKPT_FORMAT_VERSION) {
+  if (tag != HV_CKPT_BYTE_ORDER_TAG || (version != HV_CKPT_FORMAT_VERSION && version != HV_CKPT_FORMAT_V2)) {
     return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED, "%s: checkpoint format %llu or byte order not supported",
                    rd->name, (unsigned long long)version);
   }
-  get(rd, saved, sizeof *saved);
+  if (version == HV_CKPT_FORMAT_V2) {
+    /* Its estimator tunables end before HETINV_ESTIMATOR_LOSS_CLIP, the
+     * last one, which was 0 (least squares) for every such run. */
+    _Static_assert(HETINV_ESTIMATOR_LOSS_CLIP + 1 == HETINV_ESTIMATOR_PARAM_COUNT_, "LOSS_CLIP is the last tunable");
+    _Static_assert(offsetof(hv_ckpt_fingerprint_t, set_hash) ==
+                       offsetof(hv_ckpt_fingerprint_t, est_param) + sizeof saved->est_param, "no padding");
+    size_t head = offsetof(hv_ckpt_fingerprint_t, est_param) + HETINV_ESTIMATOR_LOSS_CLIP * sizeof(double);
+    size_t tail = offsetof(hv_ckpt_fingerprint_t, set_hash);
+    get(rd, saved, head);
+    saved->est_param[HETINV_ESTIMATOR_LOSS_CLIP] = 0.0;
+    get(rd, (unsigned char *)saved + tail, sizeof *saved - tail);
+    rd->older_format_less = sizeof(double);
+  } else {
+    get(rd, saved, sizeof *saved);
+  }
   if (rd->short_read) return corrupt(rd, "truncated in its fingerprint");
   hv_ckpt_fingerprint_t here;
   hv_ckpt_fingerprint(opt, &here);
@@ -424,7 +440,7 @@ hetinv_result_t hv_checkpoint_restore(hetinv_optimizer_t *opt, const unsigned ch
   if (r != HETINV_SUCCESS) return r;
   /* The position fixes every length that follows: the file must have
    * exactly that many bytes, before anything is allocated from them. */
-  uint64_t want = checkpoint_size(opt, at.k, at.iteration);
+  uint64_t want = checkpoint_size(opt, at.k, at.iteration) - rd.older_format_less;
   if ((uint64_t)len != want) {
     return corrupt(&rd, "%zu bytes; a checkpoint of this run at iteration %llu (stage %llu) has %llu", len,
                    (unsigned long long)at.iteration, (unsigned long long)at.stage, (unsigned long long)want);

@@ -1426,7 +1426,7 @@ static void damaged_checkpoints_are_refused(void **state) {
   expect_corrupt(opt, bad);
   /* An intact file of a later format version is unsupported, not corrupt. */
   memcpy(copy, data, len);
-  uint64_t version = 3;
+  uint64_t version = 4;
   memcpy(copy + 16, &version, 8);
   sum = fnv1a64(copy, len - 8);
   memcpy(copy + len - 8, &sum, 8);
@@ -1704,6 +1704,47 @@ static void forged_checkpoints_are_refused(void **state) {
 /* The base-medium check does not refuse a real run: after a coarse stage
  * that interpolates (2 x 1 x 2 cells over 3 x 1 x 3 voxels), a checkpoint of
  * the next stage resumes. */
+/* A checkpoint of format 2 (before HETINV_ESTIMATOR_LOSS_CLIP: one
+ * estimator tunable fewer in the fingerprint) resumes as least squares and
+ * finishes as the uninterrupted run; under a clipped loss it is refused. */
+static void format_2_checkpoints_resume(void **state) {
+  const problem_t *p = *state;
+  ht_tmpdir_create("optimizer-format2");
+  char path[1024], old[1024];
+  snprintf(path, sizeof path, "%s", ht_path("run.ckpt"));
+  snprintf(old, sizeof old, "%s", ht_path("v2.ckpt"));
+  setup_t s = coarse_setup(p);
+  write_half_way(p, &s, path);
+  size_t len = 0;
+  unsigned char *data = slurp(path, &len);
+  layout_t l = coarse_layout(len);
+  size_t clip = l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP; /* the last tunable: cut it */
+  unsigned char *v2 = malloc(len);
+  assert_non_null(v2);
+  memcpy(v2, data, clip);
+  memcpy(v2 + clip, data + clip + 8, len - clip - 8);
+  uint64_t version = 2;
+  memcpy(v2 + 16, &version, 8);
+  uint64_t sum = fnv1a64(v2, len - 16);
+  memcpy(v2 + len - 16, &sum, 8);
+  ht_write_file(old, v2, len - 8);
+  outcome_t *o = calloc(2, sizeof *o);
+  reference_run(p, &s, 1, &o[0]);
+  resume_and_finish(p, &s, old, 4, &o[0], &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_resume(opt, old));
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_LOSS_CLIP, 3.0));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_run(opt, p->est, NULL));
+  assert_message_contains("HETINV_ESTIMATOR_LOSS_CLIP is 3; the checkpointed run used 0");
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_LOSS_CLIP, 0.0));
+  hetinv_optimizer_destroy(&opt);
+  free(o);
+  free(v2);
+  free(data);
+  ht_tmpdir_remove();
+}
+
 static void interpolated_base_media_resume(void **state) {
   (void)state;
   problem_t p;
@@ -1979,6 +2020,7 @@ int main(void) {
       cmocka_unit_test(resume_refuses_another_configuration),
       cmocka_unit_test(damaged_checkpoints_are_refused),
       cmocka_unit_test(forged_checkpoints_are_refused),
+      cmocka_unit_test(format_2_checkpoints_resume),
       cmocka_unit_test(only_regular_checkpoint_files_are_read),
       cmocka_unit_test(interpolated_base_media_resume),
       cmocka_unit_test(layerwise_errors),
