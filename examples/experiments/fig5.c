@@ -8,6 +8,7 @@
  *
  *   hetinv-fig5 [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]
  *               [--threads N] [--min-snr S] [--lighting probes|cameras]
+ *               [--loss-clip C] [--coarse-window N]
  *               [--quiet] [--write-scene]
  *
  * --lighting says what "front-, side- and back-lighting" measures. probes
@@ -54,7 +55,7 @@ static void print_usage(FILE *f) {
   fprintf(f,
           "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
           "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
-          "                   [--quiet] [--write-scene]\n"
+          "                   [--loss-clip C] [--coarse-window N] [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
           "novel view and light.\n"
@@ -70,6 +71,10 @@ static void print_usage(FILE *f) {
           "                  (acquisition.min_snr; default 3, 0 keeps every value)\n"
           "  --lighting L    probes: each source seen at its pixel and neighbours (default);\n"
           "                  cameras: one pathlength-resolved camera on z_max sees them all\n"
+          "  --loss-clip C   Huber's loss: residuals beyond C standard errors count\n"
+          "                  linearly (estimator.loss_clip; default 0, least squares)\n"
+          "  --coarse-window N  each coarse stage hands on the mean of its last N\n"
+          "                  iterates (optimizer.coarse_average_window)\n"
           "  --quiet         no progress line\n"
           "  --write-scene   write the set-up as a render scene, the truth and a\n"
           "                  reconstruction scene from the rendered files, and stop\n",
@@ -294,7 +299,8 @@ int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scene = false, cameras = false;
   const char *out_dir = NULL;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
-  double min_snr = -1.0;
+  double min_snr = -1.0, loss_clip = -1.0;
+  int64_t coarse_window = -1;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
     const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -322,6 +328,12 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--min-snr") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 1e6, &min_snr) < 0) return 2;
+    } else if (strcmp(a, "--loss-clip") == 0) {
+      ++i;
+      if (recon_parse_real(PROG, a, v, 0.0, 1e6, &loss_clip) < 0) return 2;
+    } else if (strcmp(a, "--coarse-window") == 0) {
+      ++i;
+      if (recon_parse_count(PROG, a, v, 1, 4096, &coarse_window) < 0) return 2;
     } else if (strcmp(a, "--lighting") == 0) {
       if (v == NULL || (strcmp(v, "probes") != 0 && strcmp(v, "cameras") != 0)) {
         return usage("--lighting needs 'probes' or 'cameras'");
@@ -343,6 +355,8 @@ int main(int argc, char **argv) {
   if (photons > 0) sc.photons = photons;
   if (threads >= 0) sc.threads = (int32_t)threads;
   if (min_snr >= 0.0) sc.min_snr = min_snr;
+  if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
+  if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
   char msg[1024];
   if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
     fprintf(stderr, PROG ": %s\n", msg);
