@@ -43,6 +43,10 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " coarse_average_window=%d", (int)sc->coarse_average_window);
   }
+  if (sc->independent_errors) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " independent_errors=1");
+  }
   if (sc->gradient_clip != 0.0) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " gradient_clip=%.17g", sc->gradient_clip);
@@ -127,6 +131,10 @@ static void data_key(const recon_scene_t *sc, char *key, size_t key_size) {
            sc->truth_hi[0], sc->truth_lo[1], sc->truth_hi[1], sc->truth_lo[2], sc->truth_hi[2],
            (int)sc->pixels_per_voxel, sc->bin_width, (long long)sc->truth_photons, (unsigned long long)sc->seed,
            sc->weighting, sc->min_snr);
+  if (sc->independent_errors) {
+    size_t len = strlen(key);
+    snprintf(key + len, key_size - len, " independent_errors=1");
+  }
 }
 
 /* The bound is computed at the truth from the data alone, so runs of the

@@ -8,7 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
- *               [--coarse-window N] [--loss-clip C] [--gradient-clip C]
+ *               [--coarse-window N] [--loss-clip C] [--gradient-clip C] [--independent-errors]
  *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -67,6 +67,9 @@
  * standard errors (estimator.loss_clip; default 0, least squares);
  * --gradient-clip C clips each entry's gradient at C times the root of
  * its running mean of squares (optimizer.gradient_clip; default 0, off);
+ * --independent-errors takes the data's Monte Carlo standard errors (and
+ * so their weights) from a second render of the truth
+ * (acquisition.independent_errors);
  * --decay D its running means'
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
  * as (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of
@@ -105,7 +108,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-window N] [--loss-clip C] [--gradient-clip C]\n"
+          "                   [--coarse-window N] [--loss-clip C] [--gradient-clip C] [--independent-errors]\n"
           "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -462,7 +465,7 @@ static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photon
 
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
-  bool bound = false, bound_only = false, init_truth = false, fit = false;
+  bool bound = false, bound_only = false, init_truth = false, fit = false, independent_errors = false;
   int64_t first_volume = 0, volumes = -1, iterations = -1, photons = -1, minibatch = -1, grid = -1, threads = -1;
   int64_t bound_photons = -1, bound_replicates = 4, fit_photons = 20000;
   double scale = -1.0, epsilon = -1.0, min_snr = -1.0;
@@ -542,6 +545,8 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--coarse-window") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, 4096, &coarse_window) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--independent-errors") == 0) {
+      independent_errors = true;
     } else if (strcmp(a, "--gradient-clip") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &gradient_clip) < 0) return 2;
       ++i;
@@ -618,6 +623,7 @@ int main(int argc, char **argv) {
       if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
       if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
       if (gradient_clip >= 0.0) sc.gradient_clip = gradient_clip;
+      if (independent_errors) sc.independent_errors = true;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);

@@ -41,6 +41,11 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)sc->truth_photons);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, RECON_TRUTH_STREAM);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, clean, mc, NULL, n);
+  if (r == HETINV_SUCCESS && sc->independent_errors) {
+    /* mc from the second render; its values (in v for now) are not used. */
+    r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, RECON_ERRORS_STREAM);
+    if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, v, mc, NULL, n);
+  }
   int32_t rows = hetinv_measurements_row_count(im->set);
   for (int32_t row = 0; r == HETINV_SUCCESS && row < rows; ++row) {
     size_t off = 0;

@@ -32,6 +32,8 @@ enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM };
 /* Photons of the simulated data come from their own stream, so the
  * optimizer never reuses the paths that made its data. */
 #define RECON_TRUTH_STREAM 40000
+/* The independent render of acquisition.independent_errors. */
+#define RECON_ERRORS_STREAM 41000
 
 /* The JSON names of the weightings, optimizer methods and coordinates, in
  * the order of their enums; NULL-terminated. */
@@ -78,6 +80,13 @@ typedef struct recon_scene {
    * batch means underestimate (docs/results/fig4.md), and a 1/σ² weight then
    * lets a handful of such values rule the loss and its gradient. */
   double min_snr;
+  /* The Monte Carlo part of each simulated value's standard error from a
+   * second, independent render of the truth (same photons), so that a
+   * value's weight does not depend on its own draw: with the same render,
+   * a dim value whose draw missed the rare bright paths gets both a low
+   * value and a small error, so the largest weights go to the values that
+   * came out low. */
+  bool independent_errors;
   char measurements[1024];      /* load these (EXR) instead of simulating; "" = simulate */
   /* Acquisition from files (measured.c): a render scene (its emitters,
    * sensors, pathlengths and rows; its medium for the grid, box and η

@@ -292,11 +292,20 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (got <= 0) return got;
   static const char *const allowed[] = {"noise", "full_well", "read_noise", "seed", "weighting",
                                         "photons", "measurements", "render_scene", "measured",
-                                        "std_errors", "gain", "saturation", "min_snr", NULL};
+                                        "std_errors", "gain", "saturation", "min_snr", "independent_errors", NULL};
   if (jr_check_object(jr, o, "acquisition", allowed) < 0) return -1;
   if (jr_number(jr, o, "acquisition", "min_snr", JR_OPTIONAL, &sc->min_snr) < 0) return -1;
   if (!(sc->min_snr >= 0.0 && sc->min_snr <= 1e6)) {
     return jr_fail(jr, "acquisition.min_snr", "is %g; expected a number from 0 to 1e6", sc->min_snr);
+  }
+  const cJSON *independent = jr_get(o, "independent_errors");
+  if (independent && !cJSON_IsBool(independent)) {
+    return jr_fail(jr, "acquisition.independent_errors", "expected true or false");
+  }
+  sc->independent_errors = independent && cJSON_IsTrue(independent);
+  if (sc->independent_errors && (jr_get(o, "render_scene") != NULL || jr_get(o, "measurements") != NULL)) {
+    return jr_fail(jr, "acquisition.independent_errors",
+                   "applies to simulated data only, not with \"render_scene\" or \"measurements\"");
   }
   if (jr_get(o, "render_scene") != NULL) return read_files(jr, o, sc);
   static const char *const files_only[] = {"measured", "std_errors", "gain", "saturation", NULL};
