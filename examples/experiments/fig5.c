@@ -9,6 +9,7 @@
  *   hetinv-fig5 [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]
  *               [--threads N] [--min-snr S] [--lighting probes|cameras]
  *               [--loss-clip C] [--gradient-clip C] [--coarse-window N]
+ *               [--source-stride N]
  *               [--quiet] [--write-scene]
  *
  * --lighting says what "front-, side- and back-lighting" measures. probes
@@ -56,6 +57,7 @@ static void print_usage(FILE *f) {
           "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
           "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
           "                   [--loss-clip C] [--gradient-clip C] [--coarse-window N]\n"
+          "                   [--source-stride N]\n"
           "                   [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
@@ -76,6 +78,7 @@ static void print_usage(FILE *f) {
           "                  linearly (estimator.loss_clip; default 0, least squares)\n"
           "  --gradient-clip C  each entry's gradient clipped at C times the root of its\n"
           "                  running mean of squares (optimizer.gradient_clip; default 0, off)\n"
+          "  --source-stride N  a source at every N-th boundary pixel (default 1; 2 with --full)\n"
           "  --coarse-window N  each coarse stage hands on the mean of its last N\n"
           "                  iterates (optimizer.coarse_average_window)\n"
           "  --quiet         no progress line\n"
@@ -303,7 +306,7 @@ int main(int argc, char **argv) {
   const char *out_dir = NULL;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
   double min_snr = -1.0, loss_clip = -1.0, gradient_clip = -1.0;
-  int64_t coarse_window = -1;
+  int64_t coarse_window = -1, source_stride = -1;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
     const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -337,6 +340,9 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--gradient-clip") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 1e6, &gradient_clip) < 0) return 2;
+    } else if (strcmp(a, "--source-stride") == 0) {
+      ++i;
+      if (recon_parse_count(PROG, a, v, 1, 64, &source_stride) < 0) return 2;
     } else if (strcmp(a, "--coarse-window") == 0) {
       ++i;
       if (recon_parse_count(PROG, a, v, 1, 4096, &coarse_window) < 0) return 2;
@@ -364,6 +370,7 @@ int main(int argc, char **argv) {
   if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
   if (gradient_clip >= 0.0) sc.gradient_clip = gradient_clip;
   if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
+  if (source_stride > 0) sc.source_stride = (int32_t)source_stride;
   char msg[1024];
   if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
     fprintf(stderr, PROG ": %s\n", msg);
