@@ -275,6 +275,11 @@ static int print_fit_check(const recon_scene_t *sc, int64_t threads, int64_t pho
          "errors; those beyond %g hold %.1f %% of the truth's sum of squares\n",
          f.beyond[0], f.beyond[1], f.beyond[2], f.values, FIT_CHECK_TAILS[0], FIT_CHECK_TAILS[1], FIT_CHECK_TAILS[2],
          FIT_CHECK_TAILS[1], 100.0 * f.beyond10_share);
+  double t = f.trimmed_difference, tse = f.trimmed_se;
+  printf("  without those ten values: recovery - truth %+.6g +- %.2g: %s\n", t, tse,
+         fabs(t) < 2.0 * tse ? "no difference at this precision"
+         : t < 0.0          ? "the data prefer the recovery"
+                            : "the truth fits better");
   fflush(stdout);
   return 0;
 }

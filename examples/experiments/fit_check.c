@@ -53,11 +53,23 @@ static void misfit(const hetinv_measurements_t *set, const double *rendered, con
   *sum_se = sqrt(var);
 }
 
-/* The largest shares of the difference's variance (fit_check_t.worst, top10_share). */
+/* Σ mask·w·((I − Ī)² − s²) of value i alone (misfit()'s term). */
+static double misfit_term(const hetinv_measurements_t *set, const double *rendered, const double *se, size_t i) {
+  const double *data = hetinv_measurements_values(set), *w = hetinv_measurements_weights(set);
+  if (!hetinv_measurements_mask(set)[i] || !(w[i] > 0.0)) return 0.0;
+  double r = rendered[i] - data[i];
+  return w[i] * (r * r - se[i] * se[i]);
+}
+
+/* The largest shares of the difference's variance (fit_check_t.worst,
+ * top10_share), and the difference without the ten largest
+ * (trimmed_difference, trimmed_se). */
 static void find_worst(const hetinv_measurements_t *set, const double *pt, const double *pr, const double *render,
-                       const double *render_se, double var, fit_check_t *out) {
+                       const double *render_se, const double *rec, const double *rec_se, double var,
+                       fit_check_t *out) {
   size_t n = hetinv_measurements_value_count(set);
   double top[10] = {0};
+  size_t top_at[10] = {0};
   size_t worst = 0;
   for (size_t i = 0; i < n; ++i) {
     double v = pt[i] + pr[i];
@@ -66,11 +78,26 @@ static void find_worst(const hetinv_measurements_t *set, const double *pt, const
       int j = 9;
       while (j > 0 && top[j - 1] < v) {
         top[j] = top[j - 1];
+        top_at[j] = top_at[j - 1];
         --j;
       }
       top[j] = v;
+      top_at[j] = i;
     }
   }
+  double diff = 0.0, diff_var = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    diff += misfit_term(set, rec, rec_se, i) - misfit_term(set, render, render_se, i);
+    diff_var += pt[i] + pr[i];
+  }
+  for (int j = 0; j < 10; ++j) {
+    if (!(top[j] > 0.0)) continue;
+    size_t i = top_at[j];
+    diff -= misfit_term(set, rec, rec_se, i) - misfit_term(set, render, render_se, i);
+    diff_var -= pt[i] + pr[i];
+  }
+  out->trimmed_difference = diff;
+  out->trimmed_se = sqrt(fmax(diff_var, 0.0));
   double sum = 0.0;
   for (int j = 0; j < 10; ++j) sum += top[j];
   out->top10_share = var > 0.0 ? sum / var : 0.0;
@@ -153,7 +180,7 @@ int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, fit
       ++out->values;
     }
     out->difference_se = sqrt(var);
-    find_worst(im.set, pt, pr, it, st, var, out);
+    find_worst(im.set, pt, pr, it, st, ir, sr, var, out);
     tails(im.set, it, out);
   }
   if (r != HETINV_SUCCESS && msg[0] == '\0') {

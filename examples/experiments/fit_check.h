@@ -36,6 +36,11 @@ typedef struct fit_check {
    * (estimator.loss_clip) would clip at the truth. */
   size_t beyond[3];
   double beyond10_share;
+  /* recovery − truth and its error over the values left after the ten
+   * with the largest shares of the error's variance: a comparison on a
+   * subset chosen by both renders' variance alike (not by which fits
+   * better), which one heavy-tailed value cannot swamp. */
+  double trimmed_difference, trimmed_se;
 } fit_check_t;
 
 /* The thresholds of fit_check_t.beyond, in standard errors. */
