@@ -26,10 +26,12 @@
  * Default (reduced): a 6 × 6 × 6 grid, 108 sources (every boundary pixel
  * of the three lit faces): 80 s on 2 cores, mean/max relative error
  * σa 15.4/52.5 %, σs 6.6/23.8 %, g 6.7/27.9 % (all 9.6/52.5 %). --full: a
- * 16 × 16 × 16 grid with 192 sources (every 2nd pixel), 4000 photons:
- * 571 s on one thread, but 31 % mean error (docs/results/fig5.md) — 12 288
- * unknowns from 192 sources are probably too few; the paper's run (many
- * more sources) reports 9.31 % mean and 19.73 % max over all parameters.
+ * 16 × 16 × 16 grid with 768 sources (every boundary pixel of the three
+ * lit faces), 4000 photons: 738 s on one thread beside other runs, 11.6 %
+ * mean error over all parameters (σa 21 %), against the paper's 9.31 %
+ * mean and 19.73 % max (docs/results/fig5.md). With every 2nd pixel a
+ * source (--source-stride 2, 192 sources, the default before) every 2nd
+ * slice was 4 times worse than its neighbours and the mean error 29 %.
  *
  * Outputs in DIR (default out/fig5): those of hetinv-reconstruct
  * (recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv,
@@ -62,7 +64,7 @@ static void print_usage(FILE *f) {
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
           "novel view and light.\n"
-          "  --full          %d^3 grid, 192 sources (about 10 minutes on one thread);\n"
+          "  --full          %d^3 grid, 768 sources (about 12 minutes on one thread);\n"
           "                  default: reduced %d^3 grid, 108 sources (a few minutes)\n"
           "  --grid N        an N^3 grid (N >= 2; for tests and experiments)\n"
           "  -o DIR          output directory (default out/fig5)\n"
@@ -78,7 +80,7 @@ static void print_usage(FILE *f) {
           "                  linearly (estimator.loss_clip; default 0, least squares)\n"
           "  --gradient-clip C  each entry's gradient clipped at C times the root of its\n"
           "                  running mean of squares (optimizer.gradient_clip; default 0, off)\n"
-          "  --source-stride N  a source at every N-th boundary pixel (default 1; 2 with --full)\n"
+          "  --source-stride N  a source at every N-th boundary pixel (default 1)\n"
           "  --coarse-window N  each coarse stage hands on the mean of its last N\n"
           "                  iterates (optimizer.coarse_average_window)\n"
           "  --quiet         no progress line\n"
@@ -122,9 +124,10 @@ static void fig5_scene(recon_scene_t *sc, int32_t n, bool full, bool cameras) {
     sc->config = RECON_PATHLENGTH_CAMERAS;
     sc->camera_faces = 1u << HETINV_FACE_Z_MAX;
   }
-  /* Every boundary pixel a source (every 2nd in --full): with every 2nd
-   * the reduced run had a quarter of the sources and 38-53 % mean errors. */
-  sc->source_stride = full ? 2 : 1;
+  /* Every boundary pixel a source. With every 2nd the reduced run had a
+   * quarter of the sources and 38-53 % mean errors, and the full run 29 %,
+   * every 2nd slice 4 times worse than its neighbours (docs/results/fig5.md). */
+  sc->source_stride = 1;
   /* Weights 1/σ² of the noise model: under relative weights the late,
    * read-noise-level bins dominate the loss and the fit wanders off. */
   sc->weighting = RECON_WEIGHT_VARIANCE;
