@@ -47,10 +47,6 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " independent_errors=1");
   }
-  if (sc->gradient_clip != 0.0) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " gradient_clip=%.17g", sc->gradient_clip);
-  }
   if (sc->loss_clip != 0.0) {
     size_t len = strlen(key);
     snprintf(key + len, key_size - len, " loss_clip=%.17g", sc->loss_clip);

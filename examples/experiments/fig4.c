@@ -8,7 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
- *               [--coarse-window N] [--loss-clip C] [--gradient-clip C] [--independent-errors]
+ *               [--coarse-window N] [--loss-clip C] [--independent-errors]
  *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -65,8 +65,6 @@
  * stage, so it hands on the mean of its whole path); --loss-clip C makes
  * the loss Huber's, each value's residual counting linearly beyond C of its
  * standard errors (estimator.loss_clip; default 0, least squares);
- * --gradient-clip C clips each entry's gradient at C times the root of
- * its running mean of squares (optimizer.gradient_clip; default 0, off);
  * --independent-errors takes the data's Monte Carlo standard errors (and
  * so their weights) from a second render of the truth
  * (acquisition.independent_errors);
@@ -108,7 +106,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-window N] [--loss-clip C] [--gradient-clip C] [--independent-errors]\n"
+          "                   [--coarse-window N] [--loss-clip C] [--independent-errors]\n"
           "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -477,7 +475,7 @@ int main(int argc, char **argv) {
   int coordinates = -1;
   double decay = -1.0, epsilon_start = -1.0;
   int64_t coarse_window = -1;
-  double loss_clip = -1.0, gradient_clip = -1.0;
+  double loss_clip = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -552,9 +550,6 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--independent-errors") == 0) {
       independent_errors = true;
-    } else if (strcmp(a, "--gradient-clip") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &gradient_clip) < 0) return 2;
-      ++i;
     } else if (strcmp(a, "--loss-clip") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &loss_clip) < 0) return 2;
       ++i;
@@ -627,7 +622,6 @@ int main(int argc, char **argv) {
       if (epsilon_start > 0.0) sc.epsilon_start = epsilon_start;
       if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
       if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
-      if (gradient_clip >= 0.0) sc.gradient_clip = gradient_clip;
       if (independent_errors) sc.independent_errors = true;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {

@@ -8,7 +8,7 @@
  *
  *   hetinv-fig5 [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]
  *               [--threads N] [--min-snr S] [--lighting probes|cameras]
- *               [--loss-clip C] [--gradient-clip C] [--coarse-window N]
+ *               [--loss-clip C] [--coarse-window N]
  *               [--source-stride N]
  *               [--quiet] [--write-scene]
  *
@@ -58,7 +58,7 @@ static void print_usage(FILE *f) {
   fprintf(f,
           "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
           "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
-          "                   [--loss-clip C] [--gradient-clip C] [--coarse-window N]\n"
+          "                   [--loss-clip C] [--coarse-window N]\n"
           "                   [--source-stride N]\n"
           "                   [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
@@ -78,8 +78,6 @@ static void print_usage(FILE *f) {
           "                  cameras: one pathlength-resolved camera on z_max sees them all\n"
           "  --loss-clip C   Huber's loss: residuals beyond C standard errors count\n"
           "                  linearly (estimator.loss_clip; default 0, least squares)\n"
-          "  --gradient-clip C  each entry's gradient clipped at C times the root of its\n"
-          "                  running mean of squares (optimizer.gradient_clip; default 0, off)\n"
           "  --source-stride N  a source at every N-th boundary pixel (default 1)\n"
           "  --coarse-window N  each coarse stage hands on the mean of its last N\n"
           "                  iterates (optimizer.coarse_average_window)\n"
@@ -308,7 +306,7 @@ int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scene = false, cameras = false;
   const char *out_dir = NULL;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
-  double min_snr = -1.0, loss_clip = -1.0, gradient_clip = -1.0;
+  double min_snr = -1.0, loss_clip = -1.0;
   int64_t coarse_window = -1, source_stride = -1;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -340,9 +338,6 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--loss-clip") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 1e6, &loss_clip) < 0) return 2;
-    } else if (strcmp(a, "--gradient-clip") == 0) {
-      ++i;
-      if (recon_parse_real(PROG, a, v, 0.0, 1e6, &gradient_clip) < 0) return 2;
     } else if (strcmp(a, "--source-stride") == 0) {
       ++i;
       if (recon_parse_count(PROG, a, v, 1, 64, &source_stride) < 0) return 2;
@@ -371,7 +366,6 @@ int main(int argc, char **argv) {
   if (threads >= 0) sc.threads = (int32_t)threads;
   if (min_snr >= 0.0) sc.min_snr = min_snr;
   if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
-  if (gradient_clip >= 0.0) sc.gradient_clip = gradient_clip;
   if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
   if (source_stride > 0) sc.source_stride = (int32_t)source_stride;
   char msg[1024];

@@ -159,11 +159,6 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   put_number(f, sc->learning_rate);
   fprintf(f, ", \"average_window\": %d, ", (int)sc->average_window);
   if (sc->coarse_average_window > 0) fprintf(f, "\"coarse_average_window\": %d, ", (int)sc->coarse_average_window);
-  if (sc->gradient_clip > 0.0) {
-    fprintf(f, "\"gradient_clip\": ");
-    put_number(f, sc->gradient_clip);
-    fprintf(f, ", ");
-  }
   fprintf(f, "\"time_budget\": ");
   put_number(f, sc->time_budget);
   fprintf(f, ",\n");

@@ -335,7 +335,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
-                                        "epsilon_start", "decay", "learning_rate", "average_window", "coarse_average_window", "gradient_clip", "time_budget", "bounds",
+                                        "epsilon_start", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "bounds",
                                         "init", "levels", "layerwise_layers", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
@@ -358,10 +358,6 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "average_window", 0, 4096, &sc->average_window) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "coarse_average_window", 0, 4096, &sc->coarse_average_window) < 0) return -1;
-  if (jr_number(jr, o, "optimizer", "gradient_clip", JR_OPTIONAL, &sc->gradient_clip) < 0) return -1;
-  if (!(sc->gradient_clip >= 0.0 && sc->gradient_clip <= 1e6)) {
-    return jr_fail(jr, "optimizer.gradient_clip", "is %g; expected a number from 0 (off) to 1e6", sc->gradient_clip);
-  }
   if (jr_number(jr, o, "optimizer", "time_budget", JR_OPTIONAL, &sc->time_budget) < 0) return -1;
   if (read_triplet_object(jr, o, "optimizer", "bounds", sc->bounds_lo, sc->bounds_hi) < 0) return -1;
   for (int p = 0; p < 3; ++p) sc->init[p] = 0.5 * (sc->bounds_lo[p] + sc->bounds_hi[p]);

@@ -67,7 +67,6 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *s
       {HETINV_OPTIMIZER_TIME_BUDGET, sc->time_budget},
       {HETINV_OPTIMIZER_ITERATIONS, (double)sc->iterations},
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10},
-      {HETINV_OPTIMIZER_GRADIENT_CLIP, sc->gradient_clip},
   };
   for (size_t i = 0; r == HETINV_SUCCESS && i < sizeof params / sizeof params[0]; ++i) {
     r = hetinv_optimizer_set_param(opt, params[i].id, params[i].value);

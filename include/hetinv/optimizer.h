@@ -117,15 +117,7 @@ enum hetinv_optimizer_param_id {
   /** The coordinates the method steps in, an enum hetinv_coordinates_id
    *  (default HETINV_COORDINATES_NATIVE). */
   HETINV_OPTIMIZER_COORDINATES = 13,
-  /** ADADELTA and Adam: each entry's gradient is clipped at ±GRADIENT_CLIP
-   *  times the root of its running mean of squared gradients (as it stood
-   *  before this iteration; Adam's bias-corrected) before the method uses
-   *  it, so one heavy-tailed Monte Carlo gradient neither kicks the entry
-   *  nor inflates that mean, which would shrink its next ~1/(1 − DECAY)
-   *  steps (default 0 = off; [0, 1e6]). An entry's first gradient is not
-   *  clipped. With SGD or AdaGrad a nonzero value fails the run. */
-  HETINV_OPTIMIZER_GRADIENT_CLIP = 14,
-  HETINV_OPTIMIZER_PARAM_COUNT_ = 15 /**< not a parameter: one past the last */
+  HETINV_OPTIMIZER_PARAM_COUNT_ = 14 /**< not a parameter: one past the last */
 };
 
 /** Coordinates of the descent: values of HETINV_OPTIMIZER_COORDINATES. Pinned values. */
@@ -377,9 +369,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optim
  *         large, or a field the configured run cannot have: the message
  *         names the field, its value and the limit);
  *         HETINV_ERROR_UNSUPPORTED (a format version other than 3, today's,
- *         or 2, the one before HETINV_OPTIMIZER_GRADIENT_CLIP and
- *         HETINV_ESTIMATOR_LOSS_CLIP, which resumes with both off; or
- *         another byte order);
+ *         or 2, the one before HETINV_ESTIMATOR_LOSS_CLIP, which resumes
+ *         as least squares; or another byte order);
  *         HETINV_ERROR_INVALID_ARGUMENT (written by a differently configured
  *         optimizer; the message names what differs);
  *         HETINV_ERROR_INVALID_STATE (run started); HETINV_ERROR_OUT_OF_MEMORY.

@@ -10,8 +10,8 @@
 
 #define HV_CKPT_MAGIC "HVCKPT01"
 #define HV_CKPT_BYTE_ORDER_TAG UINT64_C(0x0102030405060708)
-/* Format 3 added HETINV_OPTIMIZER_GRADIENT_CLIP and HETINV_ESTIMATOR_LOSS_CLIP
- * to the fingerprint's tunables; format 2 (both off) is still read. */
+/* Format 3 added HETINV_ESTIMATOR_LOSS_CLIP to the fingerprint's estimator
+ * tunables; format 2 (one tunable fewer, least squares) is still read. */
 #define HV_CKPT_FORMAT_VERSION 3u
 #define HV_CKPT_FORMAT_V2 2u
 #define HV_CKPT_FNV_OFFSET UINT64_C(0xcbf29ce484222325)

@@ -386,23 +386,17 @@ static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckp
                    rd->name, (unsigned long long)version);
   }
   if (version == HV_CKPT_FORMAT_V2) {
-    /* Its optimizer and estimator tunables each end one entry early,
-     * before HETINV_OPTIMIZER_GRADIENT_CLIP and HETINV_ESTIMATOR_LOSS_CLIP
-     * (both the last of their kind), which were 0 (off) for every such run. */
-    typedef hv_ckpt_fingerprint_t fp_t;
-    _Static_assert(HETINV_OPTIMIZER_GRADIENT_CLIP + 1 == HETINV_OPTIMIZER_PARAM_COUNT_, "last optimizer tunable");
-    _Static_assert(HETINV_ESTIMATOR_LOSS_CLIP + 1 == HETINV_ESTIMATOR_PARAM_COUNT_, "last estimator tunable");
-    _Static_assert(offsetof(fp_t, lo) == offsetof(fp_t, param) + sizeof saved->param, "no padding");
-    _Static_assert(offsetof(fp_t, set_hash) == offsetof(fp_t, est_param) + sizeof saved->est_param, "no padding");
-    unsigned char *to = (unsigned char *)saved;
-    size_t params_end = offsetof(fp_t, param) + HETINV_OPTIMIZER_GRADIENT_CLIP * sizeof(double);
-    size_t est_end = offsetof(fp_t, est_param) + HETINV_ESTIMATOR_LOSS_CLIP * sizeof(double);
-    get(rd, to, params_end);
-    saved->param[HETINV_OPTIMIZER_GRADIENT_CLIP] = 0.0;
-    get(rd, to + offsetof(fp_t, lo), est_end - offsetof(fp_t, lo));
+    /* Its estimator tunables end before HETINV_ESTIMATOR_LOSS_CLIP, the
+     * last one, which was 0 (least squares) for every such run. */
+    _Static_assert(HETINV_ESTIMATOR_LOSS_CLIP + 1 == HETINV_ESTIMATOR_PARAM_COUNT_, "LOSS_CLIP is the last tunable");
+    _Static_assert(offsetof(hv_ckpt_fingerprint_t, set_hash) ==
+                       offsetof(hv_ckpt_fingerprint_t, est_param) + sizeof saved->est_param, "no padding");
+    size_t head = offsetof(hv_ckpt_fingerprint_t, est_param) + HETINV_ESTIMATOR_LOSS_CLIP * sizeof(double);
+    size_t tail = offsetof(hv_ckpt_fingerprint_t, set_hash);
+    get(rd, saved, head);
     saved->est_param[HETINV_ESTIMATOR_LOSS_CLIP] = 0.0;
-    get(rd, to + offsetof(fp_t, set_hash), sizeof *saved - offsetof(fp_t, set_hash));
-    rd->older_format_less = 2 * sizeof(double);
+    get(rd, (unsigned char *)saved + tail, sizeof *saved - tail);
+    rd->older_format_less = sizeof(double);
   } else {
     get(rd, saved, sizeof *saved);
   }

@@ -14,15 +14,7 @@
 typedef struct method {
   int id;
   double gamma, eps, rate, b1, b2, c1, c2;
-  double clip, c2_before; /* GRADIENT_CLIP, and Adam's c2 of the iteration before */
 } method_t;
-
-/* g clipped at ±clip·RMS, RMS² the running mean of squares m (0: not yet). */
-static double clipped(double g, double clip, double m) {
-  if (!(clip > 0.0) || !(m > 0.0)) return g;
-  double bound = clip * sqrt(m);
-  return fmin(fmax(g, -bound), bound);
-}
 
 /* The method's move of entry i for gradient g, updating its accumulators. */
 static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double g) {
@@ -32,7 +24,6 @@ static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double
     case HETINV_METHOD_ADADELTA: {
       /* Zeiler 2012, Algorithm 1: RMS[δ]_{t-1} / RMS[g]_t · g. An entry
        * no path has reached yet (E[g²] = 0) does not move. */
-      g = clipped(g, m->clip, *a1);
       *a1 = m->gamma * *a1 + (1.0 - m->gamma) * g * g;
       double eps_k = (m->eps * s) * (m->eps * s);
       d = *a1 > 0.0 ? sqrt(*a2 + eps_k) / sqrt(*a1) * g : 0.0;
@@ -47,7 +38,6 @@ static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double
       d = *a1 > 0.0 ? m->rate * s * g / sqrt(*a1) : 0.0;
       break;
     default: /* HETINV_METHOD_ADAM */
-      if (m->c2_before > 0.0) g = clipped(g, m->clip, *a2 / m->c2_before);
       *a1 = m->b1 * *a1 + (1.0 - m->b1) * g;
       *a2 = m->b2 * *a2 + (1.0 - m->b2) * g * g;
       d = *a2 > 0.0 ? m->rate * s * (*a1 / m->c1) / sqrt(*a2 / m->c2) : 0.0;
@@ -92,8 +82,7 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
   double t = (double)(opt->stage_iteration + 1);
   method_t m = {(int)par[HETINV_OPTIMIZER_METHOD], par[HETINV_OPTIMIZER_DECAY],
                 epsilon,
-                par[HETINV_OPTIMIZER_LEARNING_RATE], b1, b2, 1.0 - pow(b1, t), 1.0 - pow(b2, t),
-                par[HETINV_OPTIMIZER_GRADIENT_CLIP], 1.0 - pow(b2, t - 1.0)};
+                par[HETINV_OPTIMIZER_LEARNING_RATE], b1, b2, 1.0 - pow(b1, t), 1.0 - pow(b2, t)};
   bool reduced = par[HETINV_OPTIMIZER_COORDINATES] == HETINV_COORDINATES_REDUCED;
   double sq = 0.0;
   size_t moved = 0;

@@ -166,14 +166,6 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
   if (opt->stage_count == 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "the schedule has no stage: call hetinv_optimizer_add_stage() first");
   }
-  int method = (int)opt->param[HETINV_OPTIMIZER_METHOD];
-  if (opt->param[HETINV_OPTIMIZER_GRADIENT_CLIP] > 0.0 && method != HETINV_METHOD_ADADELTA &&
-      method != HETINV_METHOD_ADAM) {
-    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "HETINV_OPTIMIZER_GRADIENT_CLIP is %g; it needs ADADELTA or Adam (a running mean of "
-                   "squared gradients to clip against), and the method is %s",
-                   opt->param[HETINV_OPTIMIZER_GRADIENT_CLIP], method == HETINV_METHOD_SGD ? "SGD" : "AdaGrad");
-  }
   hetinv_result_t r = opt->started ? HETINV_SUCCESS : start(opt);
   if (r != HETINV_SUCCESS) return r;
 

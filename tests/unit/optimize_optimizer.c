@@ -295,7 +295,6 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
       {HETINV_OPTIMIZER_AVERAGE_WINDOW, 20, 1, 4096},
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10, 1, 1e15},
       {HETINV_OPTIMIZER_COORDINATES, HETINV_COORDINATES_NATIVE, 0, HETINV_COORDINATES_COUNT_ - 1},
-      {HETINV_OPTIMIZER_GRADIENT_CLIP, 0, 0, 1e6},
   };
   assert_int_equal(sizeof expect / sizeof expect[0], HETINV_OPTIMIZER_PARAM_COUNT_);
   for (size_t i = 0; i < sizeof expect / sizeof expect[0]; ++i) {
@@ -317,7 +316,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
   double lo = 7;
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(-1, &lo, NULL));
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(HETINV_OPTIMIZER_PARAM_COUNT_, &lo, NULL));
-  assert_message_contains("15");
+  assert_message_contains("14");
   assert_true(lo == 7);
   hetinv_optimizer_destroy(&opt);
 }
@@ -369,7 +368,7 @@ static void tunables_reject_bad_values_naming_them(void **state) {
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, -1, 0));
   assert_message_contains("-1");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PARAM_COUNT_, 0));
-  assert_message_contains("15");
+  assert_message_contains("14");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_get_param(opt, 99, &v));
   assert_message_contains("99");
   hetinv_optimizer_destroy(&opt);
@@ -568,59 +567,6 @@ static void adadelta_steps_with_the_stage_epsilon(void **state) {
   st.epsilon_start = 0.0; /* the tunable throughout */
   h.opt.stage_iteration = 0;
   assert_true(hv_stage_epsilon(&h.opt) == 0.01);
-}
-
-/* GRADIENT_CLIP 2: a gradient beyond twice the root of the running mean of
- * squares (before this iteration) enters ADADELTA and Adam at that bound;
- * the first gradient is never clipped, and the bound follows the mean. */
-static void gradients_are_clipped_at_their_running_rms(void **state) {
-  (void)state;
-  hand_t h;
-  hand_init(&h, HETINV_METHOD_ADADELTA);
-  h.opt.param[HETINV_OPTIMIZER_GRADIENT_CLIP] = 2.0;
-  h.grad[0] = 2;
-  hv_method_step(&h.opt, NULL, 0.01); /* E[g²] = 0.1·4 = 0.4, unclipped (none before) */
-  assert_close(h.acc1[0], 0.4, 1e-15);
-  double before = h.pi[0], e2 = h.acc2[0];
-  h.grad[0] = 100; /* a spike: clipped at 2·sqrt(0.4) */
-  hv_method_step(&h.opt, NULL, 0.01);
-  double g = 2.0 * sqrt(0.4), a1 = 0.9 * 0.4 + 0.1 * g * g;
-  assert_close(h.acc1[0], a1, 1e-15);
-  assert_close(h.pi[0], before - sqrt(e2 + 0.0081) / sqrt(a1) * g, 1e-14);
-  h.grad[0] = -1; /* within the bound: as without a clip */
-  before = h.pi[0];
-  e2 = h.acc2[0];
-  hv_method_step(&h.opt, NULL, 0.01);
-  double a1b = 0.9 * a1 + 0.1;
-  assert_close(h.acc1[0], a1b, 1e-15);
-  assert_close(h.pi[0], before + sqrt(e2 + 0.0081) / sqrt(a1b), 1e-14);
-  /* Adam (β2 = 0.75): at t = 2 the bound uses v̂ of t = 1, v/(1 − 0.75) = 4. */
-  hand_init(&h, HETINV_METHOD_ADAM);
-  h.opt.param[HETINV_OPTIMIZER_GRADIENT_CLIP] = 2.0;
-  h.grad[0] = 2;
-  h.opt.stage_iteration = 0;
-  hv_method_step(&h.opt, NULL, 0.01);
-  h.grad[0] = -50; /* clipped at −2·sqrt(4) = −4 */
-  h.opt.stage_iteration = 1;
-  hv_method_step(&h.opt, NULL, 0.01);
-  assert_close(h.acc1[0], 0.5 * 1.0 + 0.5 * -4.0, 1e-15);
-  assert_close(h.acc2[0], 0.75 * 1.0 + 0.25 * 16.0, 1e-15);
-}
-
-/* A clip with SGD or AdaGrad (no running mean of squares) fails the run
- * before any iteration. */
-static void gradient_clip_needs_a_running_mean(void **state) {
-  const problem_t *p = *state;
-  setup_t s = coarse_setup(p);
-  for (int m = HETINV_METHOD_SGD; m <= HETINV_METHOD_ADAGRAD; ++m) {
-    hetinv_optimizer_t *opt = make_optimizer(p, &s);
-    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_METHOD, m));
-    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_GRADIENT_CLIP, 3.0));
-    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_run(opt, p->est, NULL));
-    assert_message_contains(m == HETINV_METHOD_SGD ? "the method is SGD" : "the method is AdaGrad");
-    assert_null(hetinv_optimizer_losses(opt, NULL));
-    hetinv_optimizer_destroy(&opt);
-  }
 }
 
 /* SGD, AdaGrad and Adam in scaled coordinates, with projection. */
@@ -1758,10 +1704,9 @@ static void forged_checkpoints_are_refused(void **state) {
 /* The base-medium check does not refuse a real run: after a coarse stage
  * that interpolates (2 x 1 x 2 cells over 3 x 1 x 3 voxels), a checkpoint of
  * the next stage resumes. */
-/* A checkpoint of format 2 (before HETINV_OPTIMIZER_GRADIENT_CLIP and
- * HETINV_ESTIMATOR_LOSS_CLIP: each tunable list one entry shorter in the
- * fingerprint) resumes with both off and finishes as the uninterrupted
- * run; with either on it is refused. */
+/* A checkpoint of format 2 (before HETINV_ESTIMATOR_LOSS_CLIP: one
+ * estimator tunable fewer in the fingerprint) resumes as least squares and
+ * finishes as the uninterrupted run; under a clipped loss it is refused. */
 static void format_2_checkpoints_resume(void **state) {
   const problem_t *p = *state;
   ht_tmpdir_create("optimizer-format2");
@@ -1773,22 +1718,16 @@ static void format_2_checkpoints_resume(void **state) {
   size_t len = 0;
   unsigned char *data = slurp(path, &len);
   layout_t l = coarse_layout(len);
-  /* Cut the last optimizer tunable (just before the 2 × 3 bounds) and the
-   * last estimator one. */
-  size_t cut[2] = {l.est - 8 * 2 * HETINV_PARAM_COUNT - 8, l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP};
+  size_t clip = l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP; /* the last tunable: cut it */
   unsigned char *v2 = malloc(len);
   assert_non_null(v2);
-  size_t n = 0;
-  for (size_t i = 0; i < len; ++i) {
-    if (i >= cut[0] && i < cut[0] + 8) continue;
-    if (i >= cut[1] && i < cut[1] + 8) continue;
-    v2[n++] = data[i];
-  }
+  memcpy(v2, data, clip);
+  memcpy(v2 + clip, data + clip + 8, len - clip - 8);
   uint64_t version = 2;
   memcpy(v2 + 16, &version, 8);
-  uint64_t sum = fnv1a64(v2, n - 8);
-  memcpy(v2 + n - 8, &sum, 8);
-  ht_write_file(old, v2, n);
+  uint64_t sum = fnv1a64(v2, len - 16);
+  memcpy(v2 + len - 16, &sum, 8);
+  ht_write_file(old, v2, len - 8);
   outcome_t *o = calloc(2, sizeof *o);
   reference_run(p, &s, 1, &o[0]);
   resume_and_finish(p, &s, old, 4, &o[0], &o[1]);
@@ -1799,11 +1738,6 @@ static void format_2_checkpoints_resume(void **state) {
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_run(opt, p->est, NULL));
   assert_message_contains("HETINV_ESTIMATOR_LOSS_CLIP is 3; the checkpointed run used 0");
   assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_LOSS_CLIP, 0.0));
-  hetinv_optimizer_destroy(&opt);
-  opt = make_optimizer(p, &s);
-  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_GRADIENT_CLIP, 3.0));
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_resume(opt, old));
-  assert_message_contains("written for another run");
   hetinv_optimizer_destroy(&opt);
   free(o);
   free(v2);
@@ -2067,8 +2001,6 @@ int main(void) {
       cmocka_unit_test(stage_and_create_errors),
       cmocka_unit_test(adadelta_steps_match_hand_computation),
       cmocka_unit_test(adadelta_steps_with_the_stage_epsilon),
-      cmocka_unit_test(gradients_are_clipped_at_their_running_rms),
-      cmocka_unit_test(gradient_clip_needs_a_running_mean),
       cmocka_unit_test(other_methods_step_as_documented),
       cmocka_unit_test(reduced_coordinates_step_by_the_chain_rule),
       cmocka_unit_test(every_method_moves_sigma_s_toward_the_truth),
