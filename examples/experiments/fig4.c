@@ -61,10 +61,12 @@
  * finest stage at that ε, falling linearly to --epsilon's by its middle
  * (optimizer.epsilon_start); --coarse-window N makes each coarse stage hand
  * on the mean of its last N iterates (optimizer.coarse_average_window;
- * otherwise the run's window, which at full size is longer than a coarse
- * stage, so it hands on the mean of its whole path); --loss-clip C makes
- * the loss Huber's, each value's residual counting linearly beyond C of its
- * standard errors (estimator.loss_clip; default 0, least squares);
+ * default 150 with --full; 0, the reduced default, means the run's window,
+ * which at full size is longer than a coarse stage, so it would hand on
+ * the mean of its whole path); --loss-clip C makes the loss Huber's, each
+ * value's residual counting linearly beyond C of its standard errors
+ * (estimator.loss_clip; default 10 with --full, 0 = least squares, the
+ * reduced default);
  * --independent-errors takes the data's Monte Carlo standard errors (and
  * so their weights) from a second render of the truth
  * (acquisition.independent_errors);
@@ -149,6 +151,13 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
      * 4.1 / 4.4 / 4.0 %; 0.0015: 3.8 / 3.1 / 3.3 %; 0.001 converges too
      * slowly for the max), measured on volume 1 (docs/results/fig4.md). */
     sc->epsilon = 0.0015;
+    /* Huber's loss at 10 standard errors: a dim camera pixel's rare path,
+     * hundreds of times its value, otherwise rules the loss and stalls
+     * ADADELTA's steps (volume 2: σs 17.7 → 6.5 % mean, 94.5 → 28.6 %
+     * max); and coarse stages that hand on the mean of their second half,
+     * not of their whole path (docs/results/fig4.md, volumes 1–5). */
+    sc->loss_clip = 10.0;
+    sc->coarse_average_window = 150;
   } else {
     /* hetinv-reconstruct's built-in scene: a 0.6 mm cube, 6 × 6 section
      * (0.1 mm voxels, pixels and bins), 1 → 2 → 3 → 6 cells, 600
@@ -546,7 +555,7 @@ int main(int argc, char **argv) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &epsilon_start) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--coarse-window") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 1, 4096, &coarse_window) < 0) return 2;
+      if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &coarse_window) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--independent-errors") == 0) {
       independent_errors = true;
@@ -620,7 +629,7 @@ int main(int argc, char **argv) {
       if (coordinates >= 0) sc.coordinates = coordinates;
       if (decay >= 0.0) sc.decay = decay;
       if (epsilon_start > 0.0) sc.epsilon_start = epsilon_start;
-      if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
+      if (coarse_window >= 0) sc.coarse_average_window = (int32_t)coarse_window;
       if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
       if (independent_errors) sc.independent_errors = true;
       char msg[512];
