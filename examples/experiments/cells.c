@@ -1,9 +1,19 @@
 /* Finished experiment cells as small CSV files (cells.h). */
 #include "cells.h"
 
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Appends printf-style text to the key (truncated at key_size, as snprintf). */
+static void key_append(char *key, size_t key_size, const char *fmt, ...) {
+  size_t len = strlen(key);
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(key + len, key_size - len, fmt, ap);
+  va_end(ap);
+}
 
 void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   /* %.17g: the key is equal only for bitwise-equal settings. */
@@ -21,48 +31,38 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   /* Settings added later appear only when not at their default, so cells
    * stored before them stay valid. */
   if (sc->init_at_truth) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " init=truth levels=%d", (int)sc->levels[sc->level_count - 1]);
+    key_append(key, key_size, " init=truth levels=%d", (int)sc->levels[sc->level_count - 1]);
   }
   /* Against the values of the key's first version, not today's defaults:
    * a default that changes must change the key of the cells it computes. */
   if (sc->minibatch != 16) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " minibatch=%d", (int)sc->minibatch);
+    key_append(key, key_size, " minibatch=%d", (int)sc->minibatch);
   }
   /* Cells stored before min_snr existed left nothing out: min_snr 0. */
   if (sc->min_snr != 0.0) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " min_snr=%.17g", sc->min_snr);
+    key_append(key, key_size, " min_snr=%.17g", sc->min_snr);
   }
   if (sc->epsilon != 0.003) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " epsilon=%.17g", sc->epsilon);
+    key_append(key, key_size, " epsilon=%.17g", sc->epsilon);
   }
   if (sc->coarse_average_window != 0) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " coarse_average_window=%d", (int)sc->coarse_average_window);
+    key_append(key, key_size, " coarse_average_window=%d", (int)sc->coarse_average_window);
   }
   if (sc->independent_errors) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " independent_errors=1");
+    key_append(key, key_size, " independent_errors=1");
   }
   if (sc->loss_clip != 0.0) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " loss_clip=%.17g", sc->loss_clip);
+    key_append(key, key_size, " loss_clip=%.17g", sc->loss_clip);
   }
   if (sc->epsilon_start != 0.0) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " epsilon_start=%.17g", sc->epsilon_start);
+    key_append(key, key_size, " epsilon_start=%.17g", sc->epsilon_start);
   }
   if (sc->coordinates != HETINV_COORDINATES_NATIVE) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " coordinates=%s", recon_coordinate_names[sc->coordinates]);
+    key_append(key, key_size, " coordinates=%s", recon_coordinate_names[sc->coordinates]);
   }
   if (sc->method != HETINV_METHOD_ADADELTA || sc->decay != 0.95 || sc->coarse_fraction != 0.15 ||
       sc->average_window != 0 || sc->learning_rate != 0.01) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " method=%d decay=%.17g coarse_fraction=%.17g average_window=%lld rate=%.17g",
+    key_append(key, key_size, " method=%d decay=%.17g coarse_fraction=%.17g average_window=%lld rate=%.17g",
              (int)sc->method, sc->decay, sc->coarse_fraction, (long long)sc->average_window, sc->learning_rate);
   }
 }
@@ -128,8 +128,7 @@ static void data_key(const recon_scene_t *sc, char *key, size_t key_size) {
            (int)sc->pixels_per_voxel, sc->bin_width, (long long)sc->truth_photons, (unsigned long long)sc->seed,
            sc->weighting, sc->min_snr);
   if (sc->independent_errors) {
-    size_t len = strlen(key);
-    snprintf(key + len, key_size - len, " independent_errors=1");
+    key_append(key, key_size, " independent_errors=1");
   }
 }
 

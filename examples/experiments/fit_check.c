@@ -32,6 +32,14 @@ static void tails(const hetinv_measurements_t *set, const double *rendered, fit_
 /* A stream no optimizer iteration or simulated acquisition uses. */
 #define FIT_CHECK_STREAM 60000
 
+/* Σ mask·w·((I − Ī)² − s²) of value i alone (misfit()'s term). */
+static double misfit_term(const hetinv_measurements_t *set, const double *rendered, const double *se, size_t i) {
+  const double *data = hetinv_measurements_values(set), *w = hetinv_measurements_weights(set);
+  if (!hetinv_measurements_mask(set)[i] || !(w[i] > 0.0)) return 0.0;
+  double r = rendered[i] - data[i];
+  return w[i] * (r * r - se[i] * se[i]);
+}
+
 /* Σ mask·w·((I − Ī)² − s²), s the render's standard error, and its
  * standard error by the delta method (values taken as independent); each
  * value's share of the variance goes to var_share. */
@@ -45,7 +53,7 @@ static void misfit(const hetinv_measurements_t *set, const double *rendered, con
     var_share[i] = 0.0;
     if (!mask[i] || !(w[i] > 0.0)) continue;
     double r = rendered[i] - data[i], d = 2.0 * w[i] * r * se[i], q = w[i] * se[i] * se[i];
-    s += w[i] * (r * r - se[i] * se[i]);
+    s += misfit_term(set, rendered, se, i);
     var_share[i] = d * d + 2.0 * q * q;
     var += var_share[i];
   }
@@ -53,17 +61,9 @@ static void misfit(const hetinv_measurements_t *set, const double *rendered, con
   *sum_se = sqrt(var);
 }
 
-/* Σ mask·w·((I − Ī)² − s²) of value i alone (misfit()'s term). */
-static double misfit_term(const hetinv_measurements_t *set, const double *rendered, const double *se, size_t i) {
-  const double *data = hetinv_measurements_values(set), *w = hetinv_measurements_weights(set);
-  if (!hetinv_measurements_mask(set)[i] || !(w[i] > 0.0)) return 0.0;
-  double r = rendered[i] - data[i];
-  return w[i] * (r * r - se[i] * se[i]);
-}
-
 /* The largest shares of the difference's variance (fit_check_t.worst,
  * top10_share), and the difference without the ten largest
- * (trimmed_difference, trimmed_se). */
+ * (trimmed_difference, trimmed_se); out->truth and out->recovery are set. */
 static void find_worst(const hetinv_measurements_t *set, const double *pt, const double *pr, const double *render,
                        const double *render_se, const double *rec, const double *rec_se, double var,
                        fit_check_t *out) {
@@ -85,11 +85,8 @@ static void find_worst(const hetinv_measurements_t *set, const double *pt, const
       top_at[j] = i;
     }
   }
-  double diff = 0.0, diff_var = 0.0;
-  for (size_t i = 0; i < n; ++i) {
-    diff += misfit_term(set, rec, rec_se, i) - misfit_term(set, render, render_se, i);
-    diff_var += pt[i] + pr[i];
-  }
+  /* The whole difference and its variance less the ten values' terms. */
+  double diff = out->recovery - out->truth, diff_var = var;
   for (int j = 0; j < 10; ++j) {
     if (!(top[j] > 0.0)) continue;
     size_t i = top_at[j];

@@ -12,9 +12,9 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <float.h>
-#include <stddef.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
