@@ -51,6 +51,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->independent_errors) {
     key_append(key, key_size, " independent_errors=1");
   }
+  if (sc->smoothness != 0.0) {
+    key_append(key, key_size, " smoothness=%.17g", sc->smoothness);
+  }
   if (sc->loss_clip != 0.0) {
     key_append(key, key_size, " loss_clip=%.17g", sc->loss_clip);
   }

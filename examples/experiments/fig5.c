@@ -59,7 +59,7 @@ static void print_usage(FILE *f) {
           "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
           "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
           "                   [--loss-clip C] [--coarse-window N]\n"
-          "                   [--source-stride N]\n"
+          "                   [--source-stride N] [--smoothness L] [--truth-seed S]\n"
           "                   [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
@@ -81,6 +81,9 @@ static void print_usage(FILE *f) {
           "  --source-stride N  a source at every N-th boundary pixel (default 1)\n"
           "  --coarse-window N  each coarse stage hands on the mean of its last N\n"
           "                  iterates (optimizer.coarse_average_window)\n"
+          "  --smoothness L  a smoothness prior of weight L in the loss's units\n"
+          "                  (optimizer.smoothness; default 0, none)\n"
+          "  --truth-seed S  another smoke volume (default 5, the figure's)\n"
           "  --quiet         no progress line\n"
           "  --write-scene   write the set-up as a render scene, the truth and a\n"
           "                  reconstruction scene from the rendered files, and stop\n",
@@ -306,8 +309,8 @@ int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scene = false, cameras = false;
   const char *out_dir = NULL;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
-  double min_snr = -1.0, loss_clip = -1.0;
-  int64_t coarse_window = -1, source_stride = -1;
+  double min_snr = -1.0, loss_clip = -1.0, smoothness = -1.0;
+  int64_t coarse_window = -1, source_stride = -1, truth_seed = -1;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
     const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -338,6 +341,12 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--loss-clip") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 1e6, &loss_clip) < 0) return 2;
+    } else if (strcmp(a, "--smoothness") == 0) {
+      ++i;
+      if (recon_parse_real(PROG, a, v, 0.0, 1e12, &smoothness) < 0) return 2;
+    } else if (strcmp(a, "--truth-seed") == 0) {
+      ++i;
+      if (recon_parse_count(PROG, a, v, 0, INT64_MAX, &truth_seed) < 0) return 2;
     } else if (strcmp(a, "--source-stride") == 0) {
       ++i;
       if (recon_parse_count(PROG, a, v, 1, 64, &source_stride) < 0) return 2;
@@ -366,6 +375,8 @@ int main(int argc, char **argv) {
   if (threads >= 0) sc.threads = (int32_t)threads;
   if (min_snr >= 0.0) sc.min_snr = min_snr;
   if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
+  if (smoothness >= 0.0) sc.smoothness = smoothness;
+  if (truth_seed >= 0) sc.truth_seed = (uint64_t)truth_seed;
   if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
   if (source_stride > 0) sc.source_stride = (int32_t)source_stride;
   char msg[1024];

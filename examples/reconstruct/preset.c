@@ -161,6 +161,10 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   if (sc->coarse_average_window > 0) fprintf(f, "\"coarse_average_window\": %d, ", (int)sc->coarse_average_window);
   fprintf(f, "\"time_budget\": ");
   put_number(f, sc->time_budget);
+  if (sc->smoothness > 0.0) {
+    fprintf(f, ", \"smoothness\": ");
+    put_number(f, sc->smoothness);
+  }
   fprintf(f, ",\n");
   fprintf(f, "                \"bounds\": {");
   for (int p = 0; p < 3; ++p) {

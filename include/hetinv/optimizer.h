@@ -117,7 +117,19 @@ enum hetinv_optimizer_param_id {
   /** The coordinates the method steps in, an enum hetinv_coordinates_id
    *  (default HETINV_COORDINATES_NATIVE). */
   HETINV_OPTIMIZER_COORDINATES = 13,
-  HETINV_OPTIMIZER_PARAM_COUNT_ = 14 /**< not a parameter: one past the last */
+  /** Weight λ of an optional smoothness prior, in the loss's units (default
+   *  0 = none, the loss of Eq. 9 alone; [0, 1e12]). The loss gains
+   *  λ Σ_p ∫|∇u_p|², u_p = π_p / s_p over the stage's cells with the box
+   *  taken as the unit cube: per pair of cells adjacent along axis a,
+   *  λ (n_a² / N)(u_i − u_j)² (n_a cells along a, N cells in all), so a
+   *  smooth field costs the same at every level of a multi-resolution
+   *  schedule. Entries of different parameters are never coupled. With
+   *  weights 1/σ² the loss at the truth is about the number of values, and
+   *  a field that crosses its box once costs about λ. For voxels the data
+   *  cannot split (thin media, deep voxels); it biases sharp features.
+   *  Added in 0.2. */
+  HETINV_OPTIMIZER_SMOOTHNESS = 14,
+  HETINV_OPTIMIZER_PARAM_COUNT_ = 15 /**< not a parameter: one past the last */
 };
 
 /** Coordinates of the descent: values of HETINV_OPTIMIZER_COORDINATES. Pinned values. */
@@ -192,7 +204,7 @@ typedef struct hetinv_progress {
   int64_t stage_iteration;  /**< iterations done in this stage */
   int64_t stage_iterations; /**< the stage's iteration count */
   int64_t total_iterations; /**< iterations of the whole schedule (stages ending on a plateau count in full) */
-  double loss;              /**< this iteration's loss, scaled to the whole set (minibatch loss × emitters / minibatch) */
+  double loss;              /**< this iteration's loss, scaled to the whole set (minibatch loss × emitters / minibatch), plus the smoothness prior's value (HETINV_OPTIMIZER_SMOOTHNESS) */
   double step;              /**< root mean square of the step over the stage's entries, relative to their scales */
   double elapsed;           /**< seconds of optimisation (across resumes) */
 } hetinv_progress_t;

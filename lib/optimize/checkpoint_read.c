@@ -368,6 +368,30 @@ static uint64_t stored_checksum(const reader_t *rd) {
   return sum;
 }
 
+/* The fingerprint of a checkpoint of format `version`. An older format's
+ * tunable lists end before the tunables added since (each the last of its
+ * list when added), which read as 0, their value in every such run. */
+static void read_fingerprint(reader_t *rd, uint64_t version, hv_ckpt_fingerprint_t *saved) {
+  _Static_assert(HETINV_OPTIMIZER_SMOOTHNESS + 1 == HETINV_OPTIMIZER_PARAM_COUNT_, "SMOOTHNESS is the last tunable");
+  _Static_assert(HETINV_ESTIMATOR_LOSS_CLIP + 1 == HETINV_ESTIMATOR_PARAM_COUNT_, "LOSS_CLIP is the last tunable");
+  _Static_assert(offsetof(hv_ckpt_fingerprint_t, lo) ==
+                     offsetof(hv_ckpt_fingerprint_t, param) + sizeof saved->param, "no padding");
+  _Static_assert(offsetof(hv_ckpt_fingerprint_t, set_hash) ==
+                     offsetof(hv_ckpt_fingerprint_t, est_param) + sizeof saved->est_param, "no padding");
+  size_t params = version >= 4 ? HETINV_OPTIMIZER_PARAM_COUNT_ : HETINV_OPTIMIZER_SMOOTHNESS;
+  size_t est_params = version >= 3 ? HETINV_ESTIMATOR_PARAM_COUNT_ : HETINV_ESTIMATOR_LOSS_CLIP;
+  memset(saved, 0, sizeof *saved);
+  unsigned char *base = (unsigned char *)saved;
+  size_t at_param = offsetof(hv_ckpt_fingerprint_t, param), at_lo = offsetof(hv_ckpt_fingerprint_t, lo);
+  size_t at_est = offsetof(hv_ckpt_fingerprint_t, est_param), at_tail = offsetof(hv_ckpt_fingerprint_t, set_hash);
+  get(rd, base, at_param);
+  get(rd, base + at_param, params * sizeof(double));
+  get(rd, base + at_lo, at_est - at_lo);
+  get(rd, base + at_est, est_params * sizeof(double));
+  get(rd, base + at_tail, sizeof *saved - at_tail);
+  rd->older_format_less = (HETINV_OPTIMIZER_PARAM_COUNT_ - params + HETINV_ESTIMATOR_PARAM_COUNT_ - est_params) * sizeof(double);
+}
+
 /* Header, checksum and format; then the configuration it was written for. */
 static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *saved) {
   char magic[8];
@@ -381,25 +405,11 @@ static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckp
   if (rd->len < rd->at + 8 || hv_ckpt_fnv1a(HV_CKPT_FNV_OFFSET, rd->p, rd->len - 8) != stored_checksum(rd)) {
     return corrupt(rd, "damaged: its checksum does not match");
   }
-  if (tag != HV_CKPT_BYTE_ORDER_TAG || (version != HV_CKPT_FORMAT_VERSION && version != HV_CKPT_FORMAT_V2)) {
+  if (tag != HV_CKPT_BYTE_ORDER_TAG || version < HV_CKPT_FORMAT_OLDEST || version > HV_CKPT_FORMAT_VERSION) {
     return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED, "%s: checkpoint format %llu or byte order not supported",
                    rd->name, (unsigned long long)version);
   }
-  if (version == HV_CKPT_FORMAT_V2) {
-    /* Its estimator tunables end before HETINV_ESTIMATOR_LOSS_CLIP, the
-     * last one, which was 0 (least squares) for every such run. */
-    _Static_assert(HETINV_ESTIMATOR_LOSS_CLIP + 1 == HETINV_ESTIMATOR_PARAM_COUNT_, "LOSS_CLIP is the last tunable");
-    _Static_assert(offsetof(hv_ckpt_fingerprint_t, set_hash) ==
-                       offsetof(hv_ckpt_fingerprint_t, est_param) + sizeof saved->est_param, "no padding");
-    size_t head = offsetof(hv_ckpt_fingerprint_t, est_param) + HETINV_ESTIMATOR_LOSS_CLIP * sizeof(double);
-    size_t tail = offsetof(hv_ckpt_fingerprint_t, set_hash);
-    get(rd, saved, head);
-    saved->est_param[HETINV_ESTIMATOR_LOSS_CLIP] = 0.0;
-    get(rd, (unsigned char *)saved + tail, sizeof *saved - tail);
-    rd->older_format_less = sizeof(double);
-  } else {
-    get(rd, saved, sizeof *saved);
-  }
+  read_fingerprint(rd, version, saved);
   if (rd->short_read) return corrupt(rd, "truncated in its fingerprint");
   hv_ckpt_fingerprint_t here;
   hv_ckpt_fingerprint(opt, &here);

@@ -98,6 +98,12 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
 /* ADADELTA's ε at the current iteration of the current stage. */
 double hv_stage_epsilon(const hetinv_optimizer_t *opt);
 
+/* smoothness.c: adds the smoothness prior's gradient at π (the current
+ * stage's entries, on its map) to grad and returns the prior's value; 0
+ * and grad untouched when HETINV_OPTIMIZER_SMOOTHNESS is 0. */
+double hv_smoothness_add(const hetinv_optimizer_t *opt, const hetinv_param_map_t *map,
+                         const double *pi, double *grad);
+
 /* checkpoint.c */
 hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path);
 

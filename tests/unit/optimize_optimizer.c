@@ -295,6 +295,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
       {HETINV_OPTIMIZER_AVERAGE_WINDOW, 20, 1, 4096},
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10, 1, 1e15},
       {HETINV_OPTIMIZER_COORDINATES, HETINV_COORDINATES_NATIVE, 0, HETINV_COORDINATES_COUNT_ - 1},
+      {HETINV_OPTIMIZER_SMOOTHNESS, 0, 0, 1e12},
   };
   assert_int_equal(sizeof expect / sizeof expect[0], HETINV_OPTIMIZER_PARAM_COUNT_);
   for (size_t i = 0; i < sizeof expect / sizeof expect[0]; ++i) {
@@ -316,7 +317,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
   double lo = 7;
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(-1, &lo, NULL));
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(HETINV_OPTIMIZER_PARAM_COUNT_, &lo, NULL));
-  assert_message_contains("14");
+  assert_message_contains("15");
   assert_true(lo == 7);
   hetinv_optimizer_destroy(&opt);
 }
@@ -349,6 +350,8 @@ static void tunables_reject_bad_values_naming_them(void **state) {
       {HETINV_OPTIMIZER_AVERAGE_WINDOW, 0, "HETINV_OPTIMIZER_AVERAGE_WINDOW", "is 0;"},
       {HETINV_OPTIMIZER_AVERAGE_WINDOW, 4097, "HETINV_OPTIMIZER_AVERAGE_WINDOW", "is 4097;"},
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 0, "HETINV_OPTIMIZER_CHECKPOINT_INTERVAL", "is 0;"},
+      {HETINV_OPTIMIZER_SMOOTHNESS, -0.5, "HETINV_OPTIMIZER_SMOOTHNESS", "is -0.5;"},
+      {HETINV_OPTIMIZER_SMOOTHNESS, NaN, "HETINV_OPTIMIZER_SMOOTHNESS", "is nan;"},
   };
   for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
     double before = -1, after = -2;
@@ -368,7 +371,7 @@ static void tunables_reject_bad_values_naming_them(void **state) {
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, -1, 0));
   assert_message_contains("-1");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PARAM_COUNT_, 0));
-  assert_message_contains("14");
+  assert_message_contains("15");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_get_param(opt, 99, &v));
   assert_message_contains("99");
   hetinv_optimizer_destroy(&opt);
@@ -1424,14 +1427,22 @@ static void damaged_checkpoints_are_refused(void **state) {
   assert_message_contains("magic");
   ht_write_file(bad, "not a checkpoint at all, just text.", 35);
   expect_corrupt(opt, bad);
-  /* An intact file of a later format version is unsupported, not corrupt. */
+  /* An intact file of a later or an earlier format version is
+   * unsupported, not corrupt. */
   memcpy(copy, data, len);
-  uint64_t version = 4;
+  uint64_t version = 5;
   memcpy(copy + 16, &version, 8);
   sum = fnv1a64(copy, len - 8);
   memcpy(copy + len - 8, &sum, 8);
   ht_write_file(bad, copy, len);
   assert_result(HETINV_ERROR_UNSUPPORTED, hetinv_optimizer_resume(opt, bad));
+  version = 1;
+  memcpy(copy + 16, &version, 8);
+  sum = fnv1a64(copy, len - 8);
+  memcpy(copy + len - 8, &sum, 8);
+  ht_write_file(bad, copy, len);
+  assert_result(HETINV_ERROR_UNSUPPORTED, hetinv_optimizer_resume(opt, bad));
+  assert_message_contains("format 1");
   /* Intact (checksummed) files whose content is inconsistent: a loss
    * history far larger than the file, an averaging ring fuller than its
    * window, a negative σs in the base medium. The tail of the file holds
@@ -1701,50 +1712,73 @@ static void forged_checkpoints_are_refused(void **state) {
   assert_int_equal(failures, 0);
 }
 
-/* The base-medium check does not refuse a real run: after a coarse stage
- * that interpolates (2 x 1 x 2 cells over 3 x 1 x 3 voxels), a checkpoint of
- * the next stage resumes. */
-/* A checkpoint of format 2 (before HETINV_ESTIMATOR_LOSS_CLIP: one
- * estimator tunable fewer in the fingerprint) resumes as least squares and
- * finishes as the uninterrupted run; under a clipped loss it is refused. */
-static void format_2_checkpoints_resume(void **state) {
+/* The checkpoint at `data` rewritten in an older format: version 3 lacks
+ * HETINV_OPTIMIZER_SMOOTHNESS in the fingerprint's tunables, version 2
+ * also HETINV_ESTIMATOR_LOSS_CLIP in its estimator tunables (each the last
+ * of its list). Returns the new length. */
+static size_t older_format(const unsigned char *data, size_t len, uint64_t version, unsigned char *out) {
+  layout_t l = coarse_layout(len);
+  size_t smoothness = 24 + 8 * (4 + 3 * 64 + HETINV_OPTIMIZER_SMOOTHNESS);
+  size_t cut[2] = {smoothness, l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP};
+  int cuts = version == 2 ? 2 : 1;
+  size_t n = 0, from = 0;
+  for (int c = 0; c < cuts; ++c) {
+    memcpy(out + n, data + from, cut[c] - from);
+    n += cut[c] - from;
+    from = cut[c] + 8;
+  }
+  memcpy(out + n, data + from, len - from);
+  n += len - from;
+  memcpy(out + 16, &version, 8);
+  uint64_t sum = fnv1a64(out, n - 8);
+  memcpy(out + n - 8, &sum, 8);
+  return n;
+}
+
+/* Checkpoints of formats 2 and 3 (before HETINV_ESTIMATOR_LOSS_CLIP and
+ * HETINV_OPTIMIZER_SMOOTHNESS: tunables fewer in the fingerprint) resume
+ * as least squares without a prior and finish as the uninterrupted run;
+ * under a clipped loss or a prior they are refused. */
+static void older_format_checkpoints_resume(void **state) {
   const problem_t *p = *state;
-  ht_tmpdir_create("optimizer-format2");
+  ht_tmpdir_create("optimizer-older-formats");
   char path[1024], old[1024];
   snprintf(path, sizeof path, "%s", ht_path("run.ckpt"));
-  snprintf(old, sizeof old, "%s", ht_path("v2.ckpt"));
+  snprintf(old, sizeof old, "%s", ht_path("old.ckpt"));
   setup_t s = coarse_setup(p);
   write_half_way(p, &s, path);
   size_t len = 0;
   unsigned char *data = slurp(path, &len);
-  layout_t l = coarse_layout(len);
-  size_t clip = l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP; /* the last tunable: cut it */
-  unsigned char *v2 = malloc(len);
-  assert_non_null(v2);
-  memcpy(v2, data, clip);
-  memcpy(v2 + clip, data + clip + 8, len - clip - 8);
-  uint64_t version = 2;
-  memcpy(v2 + 16, &version, 8);
-  uint64_t sum = fnv1a64(v2, len - 16);
-  memcpy(v2 + len - 16, &sum, 8);
-  ht_write_file(old, v2, len - 8);
+  unsigned char *older = malloc(len);
+  assert_non_null(older);
   outcome_t *o = calloc(2, sizeof *o);
   reference_run(p, &s, 1, &o[0]);
-  resume_and_finish(p, &s, old, 4, &o[0], &o[1]);
-  assert_same_outcome(&o[0], &o[1]);
-  hetinv_optimizer_t *opt = make_optimizer(p, &s);
-  assert_ok(hetinv_optimizer_resume(opt, old));
-  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_LOSS_CLIP, 3.0));
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_run(opt, p->est, NULL));
-  assert_message_contains("HETINV_ESTIMATOR_LOSS_CLIP is 3; the checkpointed run used 0");
-  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_LOSS_CLIP, 0.0));
-  hetinv_optimizer_destroy(&opt);
+  for (uint64_t version = 2; version <= 3; ++version) {
+    ht_write_file(old, older, older_format(data, len, version, older));
+    resume_and_finish(p, &s, old, 4, &o[0], &o[1]);
+    assert_same_outcome(&o[0], &o[1]);
+    hetinv_optimizer_t *opt = make_optimizer(p, &s);
+    assert_ok(hetinv_optimizer_resume(opt, old));
+    assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_LOSS_CLIP, 3.0));
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_run(opt, p->est, NULL));
+    assert_message_contains("HETINV_ESTIMATOR_LOSS_CLIP is 3; the checkpointed run used 0");
+    assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_LOSS_CLIP, 0.0));
+    hetinv_optimizer_destroy(&opt);
+    opt = make_optimizer(p, &s);
+    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_SMOOTHNESS, 2.0));
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_resume(opt, old));
+    assert_message_contains("HETINV_OPTIMIZER_SMOOTHNESS is 0 in the checkpoint and 2 here");
+    hetinv_optimizer_destroy(&opt);
+  }
   free(o);
-  free(v2);
+  free(older);
   free(data);
   ht_tmpdir_remove();
 }
 
+/* The base-medium check does not refuse a real run: after a coarse stage
+ * that interpolates (2 x 1 x 2 cells over 3 x 1 x 3 voxels), a checkpoint of
+ * the next stage resumes. */
 static void interpolated_base_media_resume(void **state) {
   (void)state;
   problem_t p;
@@ -2020,7 +2054,7 @@ int main(void) {
       cmocka_unit_test(resume_refuses_another_configuration),
       cmocka_unit_test(damaged_checkpoints_are_refused),
       cmocka_unit_test(forged_checkpoints_are_refused),
-      cmocka_unit_test(format_2_checkpoints_resume),
+      cmocka_unit_test(older_format_checkpoints_resume),
       cmocka_unit_test(only_regular_checkpoint_files_are_read),
       cmocka_unit_test(interpolated_base_media_resume),
       cmocka_unit_test(layerwise_errors),
