@@ -123,9 +123,11 @@ enum hetinv_optimizer_param_id {
    *  taken as the unit cube: per pair of cells adjacent along axis a,
    *  λ (n_a² / N)(u_i − u_j)² (n_a cells along a, N cells in all), so a
    *  smooth field costs the same at every level of a multi-resolution
-   *  schedule. Entries of different parameters are never coupled. With
-   *  weights 1/σ² the loss at the truth is about the number of values, and
-   *  a field that crosses its box once costs about λ. For voxels the data
+   *  schedule. Entries of different parameters are never coupled. A field
+   *  that crosses its box once costs about λ. With weights 1/σ² the data's
+   *  loss at the truth is about the number of values, more with the
+   *  estimator's own Monte Carlo noise (Fig. 5's runs end near 8× it), so
+   *  λ is chosen relative to the loss the progress callback reports. For voxels the data
    *  cannot split (thin media, deep voxels); it biases sharp features.
    *  Added in 0.2. */
   HETINV_OPTIMIZER_SMOOTHNESS = 14,

@@ -45,9 +45,14 @@ static void fixture_release(fixture_t *f) {
   hetinv_context_destroy(&f->ctx);
 }
 
+static double *zeros(size_t k) {
+  double *v = calloc(k, sizeof(double));
+  assert_non_null(v);
+  return v;
+}
+
 static double prior(const fixture_t *f, const double *pi) {
-  double *grad = calloc(f->opt.k, sizeof(double));
-  assert_non_null(grad);
+  double *grad = zeros(f->opt.k);
   double r = hv_smoothness_add(&f->opt, f->map, pi, grad);
   free(grad);
   return r;
@@ -60,9 +65,7 @@ static void gradient_matches_differences(void **state) {
   fixture_t f;
   fixture_init(&f, (int32_t[]){3, 2, 4}, 7.5);
   size_t k = f.opt.k;
-  double *pi = calloc(k, sizeof(double)), *grad = calloc(k, sizeof(double));
-  assert_non_null(pi);
-  assert_non_null(grad);
+  double *pi = zeros(k), *grad = zeros(k);
   srand(12345);
   for (size_t i = 0; i < k; ++i) {
     pi[i] = f.scale[i] * (double)rand() / RAND_MAX;
@@ -102,8 +105,7 @@ static void ramps_cost_their_dirichlet_energy(void **state) {
       double lambda = 2.0;
       fixture_init(&f, shapes[s], lambda);
       size_t k = f.opt.k, cells = k / 2;
-      double *pi = calloc(k, sizeof(double));
-      assert_non_null(pi);
+      double *pi = zeros(k);
       for (size_t i = 0; i < k; ++i) pi[i] = 0.4 * f.scale[i];
       assert_true(prior(&f, pi) == 0.0);
       size_t stride = axis == 0 ? 1 : axis == 1 ? (size_t)shapes[s][0] : (size_t)shapes[s][0] * (size_t)shapes[s][1];
@@ -127,9 +129,7 @@ static void zero_weight_adds_nothing(void **state) {
   fixture_t f;
   fixture_init(&f, (int32_t[]){3, 1, 3}, 0.0);
   size_t k = f.opt.k;
-  double *pi = calloc(k, sizeof(double)), *grad = calloc(k, sizeof(double));
-  assert_non_null(pi);
-  assert_non_null(grad);
+  double *pi = zeros(k), *grad = zeros(k);
   for (size_t i = 0; i < k; ++i) {
     pi[i] = (double)(i % 5);
     grad[i] = -0.0;
