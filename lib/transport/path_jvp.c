@@ -8,7 +8,7 @@
 void hv_jvp_path_begin(hv_jvp_state_t *st) {
   memset(st->run, 0, (size_t)st->tangents * sizeof(double));
   st->path_done = 0;
-  st->path_vertex = -1;
+  st->path_end.k = -1;
 }
 
 /* The tangents' entries of parameter block p at voxel k. */
@@ -34,7 +34,7 @@ void hv_jvp_chain_begin(hv_jvp_state_t *st, int64_t vertex, double dlog_dg) {
   memset(run, 0, (size_t)st->tangents * sizeof(double));
   add_scaled(st, HETINV_PARAM_G, vertex, dlog_dg, run);
   st->chain_done = 0;
-  st->chain_vertex = -1;
+  st->chain_end.k = -1;
 }
 
 /* run -= length·(v_σa + v_σs) of voxel k: a segment's transmittance score. */
@@ -58,29 +58,20 @@ static inline void add_extinction_visit(void *user, int64_t k, double seg) {
   add_extinction(x->st, k, seg, x->run);
 }
 
-/* A straight segment split into voxels as hv_grad_apply_log splits it;
- * returns the voxel where it ends. */
-static int64_t add_ray(const hv_jvp_state_t *st, const hv_log_entry_t *e, double *run) {
-  hv_ray_t r;
-  memcpy(r.p, e->u.ray.p, sizeof r.p);
-  memcpy(r.d, e->u.ray.d, sizeof r.d);
-  hv_ray_locate(st->grid, &r);
-  extinction_visit_t x = {st, run};
-  return hv_walk_segment(st->grid, &r, e->u.ray.length, add_extinction_visit, &x);
-}
-
 /* Adds the entries of `log` not yet summed to run. */
 static void catch_up(const hv_jvp_state_t *st, const hv_path_log_t *log, size_t *done,
-                     int64_t *vertex, double *run) {
+                     hv_ray_t *end, double *run) {
   for (size_t i = *done; i < log->count; ++i) {
     const hv_log_entry_t *e = &log->entries[i];
     if (e->kind == HV_LOG_RAY) {
-      *vertex = add_ray(st, e, run);
-      if (e->u.ray.scatter != 0.0) add_scaled(st, HETINV_PARAM_SIGMA_S, *vertex, e->u.ray.scatter, run);
+      /* Split as hv_grad_apply_log splits it. */
+      extinction_visit_t x = {st, run};
+      hv_walk_log_ray(st->grid, e, end, add_extinction_visit, &x);
+      if (e->u.ray.scatter != 0.0) add_scaled(st, HETINV_PARAM_SIGMA_S, end->k, e->u.ray.scatter, run);
       continue;
     }
     int64_t k = e->u.at.voxel;
-    if (k < 0) k = *vertex; /* the vertex that ended the last ray */
+    if (k < 0) k = end->k; /* the vertex that ended the last ray */
     if (k < 0) {
       hv_ray_t r = {.p = {e->u.at.p[0], e->u.at.p[1], e->u.at.p[2]}, .d = {0.0, 0.0, 0.0}};
       hv_ray_locate(st->grid, &r);
@@ -101,8 +92,8 @@ void hv_jvp_splat(hv_jvp_state_t *st, const hv_path_log_t *path, const hv_path_l
                   size_t stride) {
   int32_t T = st->tangents;
   double *run = st->run, *chain_run = st->run + T;
-  catch_up(st, path, &st->path_done, &st->path_vertex, run);
-  if (chain) catch_up(st, chain, &st->chain_done, &st->chain_vertex, chain_run);
+  catch_up(st, path, &st->path_done, &st->path_end, run);
+  if (chain) catch_up(st, chain, &st->chain_done, &st->chain_end, chain_run);
   HV_FOR_EACH_BIN(pl, tau, {
     double *d = dst + (size_t)bin * stride;
     double x = value * weight;

@@ -34,7 +34,7 @@ typedef struct hv_jvp_state {
   const double *sparse_value;
   double *run; /* 2T running sums: the path's, then the current connection's */
   size_t path_done, chain_done;       /* entries of each log already summed */
-  int64_t path_vertex, chain_vertex;  /* voxel ending the last RAY entry summed */
+  hv_ray_t path_end, chain_end;       /* voxel ending the last RAY entry summed (k < 0: none) */
 } hv_jvp_state_t;
 
 /* A new path: its running sums are zero. */

@@ -15,38 +15,34 @@ typedef struct extinction_visit {
   double w;
 } extinction_visit_t;
 
-static inline void add_extinction_visit(void *user, int64_t k, double seg) {
+HV_ALWAYS_INLINE static inline void add_extinction_visit(void *user, int64_t k, double seg) {
   const extinction_visit_t *x = user;
   hv_grad_add_extinction(x->gt, k, -seg * x->w);
 }
 
-/* -length·w to σa and σs of every voxel the straight segment crosses;
- * returns the voxel where it ends. */
-static int64_t add_ray(hv_grad_tally_t *gt, const hv_grid_t *grid, const double p[3],
-                       const double d[3], double length, double w) {
-  hv_ray_t r;
-  memcpy(r.p, p, sizeof r.p);
-  memcpy(r.d, d, sizeof r.d);
-  hv_ray_locate(grid, &r);
-  extinction_visit_t x = {gt, w};
-  return hv_walk_segment(grid, &r, length, add_extinction_visit, &x);
-}
-
+/* Compiled for x86-64-v3 too, like the photon loop that calls it: each
+ * log's first ray is located, and the baseline's floor is a branchy
+ * emulation. */
+HV_TARGET_CLONES_X86_64_V3
 void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path_log_t *log) {
-  int64_t vertex = -1; /* voxel at the end of the last ray split, if known */
+  hv_ray_t end = {.k = -1}; /* where the last ray split ended: the vertex */
   for (size_t i = 0; i < log->count; ++i) {
     const hv_log_entry_t *e = &log->entries[i];
     double w = log->cum - e->cum;
     if (e->kind == HV_LOG_RAY) {
-      vertex = -1;
-      if (w == 0.0) continue;
-      vertex = add_ray(gt, grid, e->u.ray.p, e->u.ray.d, e->u.ray.length, w);
-      if (e->u.ray.scatter != 0.0) hv_grad_add(gt, HETINV_PARAM_SIGMA_S, vertex, e->u.ray.scatter * w);
+      if (w == 0.0) {
+        end.k = -1;
+        continue;
+      }
+      /* -length·w to σa and σs of every voxel the ray crosses. */
+      extinction_visit_t x = {gt, w};
+      hv_walk_log_ray(grid, e, &end, add_extinction_visit, &x);
+      if (e->u.ray.scatter != 0.0) hv_grad_add(gt, HETINV_PARAM_SIGMA_S, end.k, e->u.ray.scatter * w);
       continue;
     }
     if (w == 0.0) continue;
     int64_t k = e->u.at.voxel;
-    if (k < 0) k = vertex; /* the vertex that ended the last ray */
+    if (k < 0) k = end.k; /* the vertex that ended the last ray */
     if (k < 0) {
       hv_ray_t r = {.p = {e->u.at.p[0], e->u.at.p[1], e->u.at.p[2]}, .d = {0.0, 0.0, 0.0}};
       hv_ray_locate(grid, &r);

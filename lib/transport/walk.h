@@ -55,9 +55,11 @@ static inline void hv_walk_init_dist(const hv_grid_t *g, const hv_ray_t *r, cons
     double t = dist[a] * ainv;
     tn[a] = t < HUGE_VAL ? t : HUGE_VAL; /* NaN -> inf */
     dt[a] = g->h[a] * ainv;
-    int up = r->d[a] > 0.0;
-    s[a] = up ? g->stride[a] : -g->stride[a];
-    left[a] = up ? g->n[a] - 1 - r->v[a] : r->v[a];
+    /* By masks: the sign of d is a coin toss to a branch predictor. */
+    int32_t up = r->d[a] > 0.0;
+    int64_t down = (int64_t)up - 1; /* 0 or all ones */
+    s[a] = (g->stride[a] ^ down) - down;
+    left[a] = r->v[a] + (-up & (g->n[a] - 1 - 2 * r->v[a]));
   }
   *w = (hv_walk_t){.t0 = tn[0], .t1 = tn[1], .t2 = tn[2], .dt0 = dt[0], .dt1 = dt[1], .dt2 = dt[2],
                    .s0 = s[0], .s1 = s[1], .s2 = s[2], .k = r->k,
@@ -118,7 +120,10 @@ HV_ALWAYS_INLINE static inline int hv_walk_cross(hv_walk_t *w) {
 /* Writes the walk's voxel back into the ray. */
 static inline void hv_walk_store(const hv_grid_t *g, const hv_walk_t *w, hv_ray_t *r) {
   const int32_t left[3] = {w->left0, w->left1, w->left2};
-  for (int a = 0; a < 3; ++a) r->v[a] = r->d[a] > 0.0 ? g->n[a] - 1 - left[a] : left[a];
+  for (int a = 0; a < 3; ++a) {
+    int32_t up = r->d[a] > 0.0; /* by a mask, as in hv_walk_init_dist */
+    r->v[a] = left[a] + (-up & (g->n[a] - 1 - 2 * left[a]));
+  }
   r->k = w->k;
 }
 
@@ -274,9 +279,9 @@ static inline double hv_ray_to_boundary(const hv_grid_t *g, hv_ray_t *r, double 
 
 /* Splits the straight segment of length `length` from the located ray r
  * into voxels: visit(user, k, length inside voxel k) for each voxel crossed,
- * in order; returns the voxel where the segment ends. Inlined with a
- * constant visit, which is then inlined too. */
-HV_ALWAYS_INLINE static inline int64_t hv_walk_segment(const hv_grid_t *g, const hv_ray_t *r,
+ * in order; leaves r->v and r->k at the voxel where the segment ends and
+ * returns r->k. Inlined with a constant visit, which is then inlined too. */
+HV_ALWAYS_INLINE static inline int64_t hv_walk_segment(const hv_grid_t *g, hv_ray_t *r,
                                                        double length,
                                                        void (*visit)(void *, int64_t, double),
                                                        void *user) {
@@ -289,7 +294,35 @@ HV_ALWAYS_INLINE static inline int64_t hv_walk_segment(const hv_grid_t *g, const
     t = end;
     if (t >= length || !hv_walk_cross(&w)) break;
   }
-  return w.k;
+  hv_walk_store(g, &w, r);
+  return r->k;
+}
+
+/* Splits a log's RAY entry into voxels (hv_walk_segment). *end is the voxel
+ * where the log's previous RAY entry ended (end->k < 0: none, or not split)
+ * and becomes this one's. A log's RAY entries are one continuous path: each
+ * starts at the scattering vertex or the boundary point where the last one
+ * ended, so it starts in that voxel and only a log's first ray is located
+ * (three floors and clamps). Where the vertex lies on a face (or within
+ * rounding of one), the walk then starts on that face with a zero-length
+ * segment, or one a rounding longer, instead of on the other side. */
+HV_ALWAYS_INLINE static inline int64_t hv_walk_log_ray(const hv_grid_t *g, const hv_log_entry_t *e,
+                                                       hv_ray_t *end,
+                                                       void (*visit)(void *, int64_t, double),
+                                                       void *user) {
+  hv_ray_t r;
+  memcpy(r.p, e->u.ray.p, sizeof r.p);
+  memcpy(r.d, e->u.ray.d, sizeof r.d);
+  if (end->k < 0) {
+    hv_ray_locate(g, &r);
+  } else {
+    memcpy(r.v, end->v, sizeof r.v);
+    r.k = end->k;
+  }
+  hv_walk_segment(g, &r, e->u.ray.length, visit, user);
+  memcpy(end->v, r.v, sizeof r.v);
+  end->k = r.k;
+  return r.k;
 }
 
 #endif

@@ -5,7 +5,8 @@
  * reference's length, in the reference's voxel (the gradient's scores
  * need exactly these). Heterogeneous grids with vacuum voxels, random rays
  * and rays along the axes on voxel faces and edges (a pencil beam's first
- * flight); and the uniform fast path against the same grid stepped.
+ * flight); the uniform fast path against the same grid stepped; and the
+ * split of a path's logged rays, each started where the last one ended.
  * Runs in well under a second. */
 #include <math.h>
 #include <stdbool.h>
@@ -336,12 +337,105 @@ static void uniform_grid_matches_stepped(void **state) {
   hetinv_context_destroy(&ctx);
 }
 
+typedef struct visits {
+  seg_t seg[MAX_SEG];
+  int count;
+} visits_t;
+
+static void record_visit(void *user, int64_t k, double length) {
+  visits_t *v = user;
+  if (length < 1e-12) return; /* the reference drops zero-length pieces */
+  assert_true(v->count < MAX_SEG);
+  v->seg[v->count++] = (seg_t){k, length};
+}
+
+/* The gradient pass splits a path's logged rays (uniform grids) with
+ * hv_walk_log_ray, which starts each ray in the voxel where the last one
+ * ended instead of locating it. Paths of random flights in a uniform grid,
+ * reflected at the boundary, some axis-parallel on voxel faces (a pencil
+ * beam): every ray's split must be the reference's, and the voxel where it
+ * ends must hold its end point. */
+static void continuous_log_rays_split_as_reference(void **state) {
+  (void)state;
+  uint64_t seed = UINT64_C(0x452821e638d01377);
+  hetinv_context_t *ctx = NULL;
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  assert_ok(hetinv_context_create(&init, &ctx));
+  const int32_t dims[3] = {NX, NY, NZ};
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_medium_create(ctx, LO, HI, dims, &m));
+  assert_ok(hetinv_medium_fill(m, 0.7, 3.1, 0.4));
+  assert_ok(hetinv_medium_commit(m));
+  hv_grid_t g;
+  assert_ok(hv_grid_build(m, &g));
+  assert_true(g.uniform);
+  hv_path_log_t log = {.ctx = ctx};
+  int rays = 0;
+  for (int path = 0; path < 200; ++path) {
+    hv_path_log_reset(&log);
+    hv_ray_t r;
+    bool beam = path % 4 == 0; /* axis-parallel, starting on voxel faces */
+    for (int a = 0; a < 3; ++a) {
+      r.p[a] = beam ? g.face[a][next_u64(&seed) % (uint64_t)(g.n[a] + 1)]
+                    : LO[a] + (HI[a] - LO[a]) * uniform(&seed);
+      r.d[a] = 0.0;
+    }
+    if (beam) {
+      r.d[path / 4 % 3] = path % 8 ? 1.0 : -1.0;
+    } else {
+      random_direction(&seed, r.d);
+    }
+    hv_ray_locate(&g, &r);
+    for (int flight = 0; flight < 40; ++flight) {
+      double depth = 1e-9 - log1p(-uniform(&seed)) * (flight % 3 ? 1.0 : 6.0), dist;
+      hetinv_face_t face;
+      int collided = hv_ray_march(&g, &r, depth, &dist, &face, &log);
+      if (collided) {
+        if (!beam || flight % 2) random_direction(&seed, r.d); /* beams go on straight at times */
+      } else {
+        r.d[hv_face_axis(face)] = -r.d[hv_face_axis(face)]; /* reflected */
+      }
+    }
+    assert_false(log.out_of_memory);
+    hv_ray_t end = {.k = -1};
+    for (size_t i = 0; i < log.count; ++i, ++rays) {
+      const hv_log_entry_t *e = &log.entries[i];
+      assert_int_equal(e->kind, HV_LOG_RAY);
+      visits_t got = {.count = 0};
+      int64_t k = hv_walk_log_ray(&g, e, &end, record_visit, &got);
+      assert_true(k == end.k);
+      seg_t ref[MAX_SEG];
+      int n = reference_segments(&g, e->u.ray.p, e->u.ray.d, e->u.ray.length, ref);
+      bool same = n == got.count;
+      for (int j = 0; same && j < n; ++j) {
+        same = ref[j].k == got.seg[j].k && fabs(ref[j].length - got.seg[j].length) <= 1e-12;
+      }
+      if (!same) {
+        print_error("path %d, ray %zu: %d pieces, reference %d\n", path, i, got.count, n);
+        fail();
+      }
+      for (int a = 0; a < 3; ++a) {
+        double q = e->u.ray.p[a] + e->u.ray.length * e->u.ray.d[a];
+        int32_t v = end.v[a];
+        assert_true(end.k / g.stride[a] % g.n[a] == v);
+        assert_true(q >= g.face[a][v] - 1e-12 && q <= g.face[a][v + 1] + 1e-12);
+      }
+    }
+  }
+  assert_true(rays == 200 * 40);
+  hv_path_log_release(&log);
+  hv_grid_release(&g);
+  hetinv_medium_destroy(&m);
+  hetinv_context_destroy(&ctx);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(random_flights_match_reference),
       cmocka_unit_test(axis_rays_on_faces_match_reference),
       cmocka_unit_test(rays_to_boundary_match_reference),
       cmocka_unit_test(uniform_grid_matches_stepped),
+      cmocka_unit_test(continuous_log_rays_split_as_reference),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
