@@ -41,6 +41,15 @@ typedef struct fit_check {
    * subset chosen by both renders' variance alike (not by which fits
    * better), which one heavy-tailed value cannot swamp. */
   double trimmed_difference, trimmed_se;
+  /* The run's own loss (Huber's with the scene's clip, or least squares)
+   * at the recovery minus at the truth, from `loss_replicates` pairs of
+   * renders on independent streams (within a pair both share photons):
+   * the mean over pairs and its standard error from their spread. This is
+   * what the optimizer minimised. Each render's Monte Carlo error raises
+   * both losses alike, and what one heavy-tailed value adds is bounded by
+   * the clip, so this comparison can decide where the misfit above cannot. */
+  double loss_truth, loss_difference, loss_difference_se;
+  int32_t loss_replicates;
 } fit_check_t;
 
 /* The thresholds of fit_check_t.beyond, in standard errors. */
@@ -48,8 +57,9 @@ extern const double FIT_CHECK_TAILS[3];
 
 /* Simulates the scene's data (as its cell did), reads the recovery from
  * <scene->output>/recovered_<param>.vol and renders both at `photons` per
- * emitter. 0, or -1 with "<what or file>: <reason>" in msg. */
-int fit_check_run(const recon_scene_t *scene, int64_t threads, int64_t photons, fit_check_t *out, char *msg,
-                  size_t msg_size);
+ * emitter, once for the misfit and `replicates` (2 or more) times more for
+ * the run's loss. 0, or -1 with "<what or file>: <reason>" in msg. */
+int fit_check_run(const recon_scene_t *scene, int64_t threads, int64_t photons, int32_t replicates,
+                  fit_check_t *out, char *msg, size_t msg_size);
 
 #endif
