@@ -89,7 +89,8 @@
  * error is heavy-tailed (rare large contributions to dim values), so it
  * also compares the run's own loss (Huber's clip, --loss-clip) over
  * --fit-replicates pairs of renders (default 4) on independent streams,
- * with an error from their spread.
+ * with an error from their spread. Each cell's check is kept in
+ * DIR/config<c>_volume<v>/fit_check.csv.
  *
  * --init-truth is a diagnostic: every cell's optimizer starts at its truth
  * and runs the finest level alone (same iterations and photons). A
@@ -301,6 +302,10 @@ static int print_fit_check(const recon_scene_t *sc, int64_t threads, int64_t pho
          : d < 0.0          ? "the data prefer the recovery: what limits it is the data"
                             : "the truth fits better: what limits it is the optimizer");
   fflush(stdout);
+  if (fit_check_store(sc, photons, &f) != 0) {
+    fprintf(stderr, "hetinv-fig4: %s/fit_check.csv: %s\n", sc->output, strerror(errno));
+    return 1;
+  }
   return 0;
 }
 

@@ -240,3 +240,24 @@ int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, int
   hetinv_context_destroy(&ctx);
   return r == HETINV_SUCCESS ? 0 : -1;
 }
+
+const char *fit_check_verdict(double d, double se) {
+  return fabs(d) < 2.0 * se ? "no difference" : d < 0.0 ? "data" : "optimizer";
+}
+
+int fit_check_store(const recon_scene_t *sc, int64_t photons, const fit_check_t *f) {
+  char path[1200], tmp[1220];
+  snprintf(path, sizeof path, "%s/fit_check.csv", sc->output);
+  FILE *out = recon_text_begin(path, tmp, sizeof tmp);
+  if (out == NULL) return -1;
+  double d = f->recovery - f->truth;
+  fprintf(out, "quantity,truth,recovery_minus_truth,std_error,verdict\n");
+  fprintf(out, "misfit,%.9g,%.9g,%.3g,%s\n", f->truth, d, f->difference_se, fit_check_verdict(d, f->difference_se));
+  fprintf(out, "misfit_without_ten,,%.9g,%.3g,%s\n", f->trimmed_difference, f->trimmed_se,
+          fit_check_verdict(f->trimmed_difference, f->trimmed_se));
+  fprintf(out, "run_loss,%.9g,%.9g,%.3g,%s\n", f->loss_truth, f->loss_difference, f->loss_difference_se,
+          fit_check_verdict(f->loss_difference, f->loss_difference_se));
+  fprintf(out, "photons,%lld\nreplicates,%d\nloss_clip,%.9g\nseconds,%.3f\n", (long long)photons,
+          (int)f->loss_replicates, sc->loss_clip, f->seconds);
+  return recon_text_commit(out, tmp, path);
+}

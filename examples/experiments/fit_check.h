@@ -52,6 +52,15 @@ typedef struct fit_check {
   int32_t loss_replicates;
 } fit_check_t;
 
+/* "no difference" (|d| < 2 se), "data" (the recovery fits better) or
+ * "optimizer" (the truth fits better) for a difference d ± se. */
+const char *fit_check_verdict(double d, double se);
+
+/* Writes <scene->output>/fit_check.csv (replaced whole, never half
+ * written): the photons, the misfits and the run's loss comparison with
+ * their verdicts. 0, or -1 with errno set. */
+int fit_check_store(const recon_scene_t *scene, int64_t photons, const fit_check_t *f);
+
 /* The thresholds of fit_check_t.beyond, in standard errors. */
 extern const double FIT_CHECK_TAILS[3];
 
