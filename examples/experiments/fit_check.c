@@ -118,37 +118,40 @@ static void find_worst(const hetinv_measurements_t *set, const double *pt, const
 
 /* One value's term of the run's loss, as hetinv_estimator_loss_gradient()
  * documents it: w·r² within the clip (√w·|r| <= clip), 2·clip·√w·|r| − clip²
- * beyond; clip 0 is least squares. */
-static double loss_term(double w, double r, double clip) {
+ * beyond; clip 0 is least squares. Within the clip the render's own
+ * variance s² is taken out (E[w·r²] = w·(r̄² + s²)), as the misfit does:
+ * otherwise whichever medium renders with less Monte Carlo noise would
+ * look the better fit. */
+static double loss_term(double w, double r, double s, double clip) {
   double z = sqrt(w) * fabs(r);
-  return clip > 0.0 && z > clip ? 2.0 * clip * z - clip * clip : z * z;
+  return clip > 0.0 && z > clip ? 2.0 * clip * z - clip * clip : z * z - w * s * s;
 }
 
-static double run_loss(const hetinv_measurements_t *set, const double *rendered, double clip) {
+static double run_loss(const hetinv_measurements_t *set, const double *rendered, const double *se, double clip) {
   size_t n = hetinv_measurements_value_count(set);
   const double *data = hetinv_measurements_values(set), *w = hetinv_measurements_weights(set);
   const uint8_t *mask = hetinv_measurements_mask(set);
   double sum = 0.0;
   for (size_t i = 0; i < n; ++i) {
-    if (mask[i] && w[i] > 0.0) sum += loss_term(w[i], rendered[i] - data[i], clip);
+    if (mask[i] && w[i] > 0.0) sum += loss_term(w[i], rendered[i] - data[i], se[i], clip);
   }
   return sum;
 }
 
 /* fit_check_t.loss_*: pairs of renders on streams FIT_CHECK_STREAM + 1 + j,
- * into it and ir (n values each). */
+ * into it, ir with their standard errors st, sr (n values each). */
 static hetinv_result_t loss_pairs(hetinv_estimator_t *est, const recon_scene_t *sc, const hetinv_medium_t *truth,
                                   const hetinv_medium_t *rec, const hetinv_measurements_t *set, int32_t replicates,
-                                  double *it, double *ir, fit_check_t *out) {
+                                  double *it, double *st, double *ir, double *sr, fit_check_t *out) {
   size_t n = hetinv_measurements_value_count(set);
   double sum = 0.0, sq = 0.0, truth_sum = 0.0;
   hetinv_result_t r = HETINV_SUCCESS;
   for (int32_t j = 0; r == HETINV_SUCCESS && j < replicates; ++j) {
     r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, FIT_CHECK_STREAM + 1 + j);
-    if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, set, it, NULL, NULL, n);
-    if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, rec, set, ir, NULL, NULL, n);
+    if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, set, it, st, NULL, n);
+    if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, rec, set, ir, sr, NULL, n);
     if (r != HETINV_SUCCESS) break;
-    double lt = run_loss(set, it, sc->loss_clip), d = run_loss(set, ir, sc->loss_clip) - lt;
+    double lt = run_loss(set, it, st, sc->loss_clip), d = run_loss(set, ir, sr, sc->loss_clip) - lt;
     truth_sum += lt;
     sum += d;
     sq += d * d;
@@ -226,7 +229,7 @@ int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, int
     out->difference_se = sqrt(var);
     find_worst(im.set, pt, pr, it, st, ir, sr, var, out);
     tails(im.set, it, out);
-    r = loss_pairs(est, sc, truth, rec, im.set, replicates, it, ir, out);
+    r = loss_pairs(est, sc, truth, rec, im.set, replicates, it, st, ir, sr, out);
   }
   if (r != HETINV_SUCCESS && msg[0] == '\0') {
     snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(ctx));

@@ -45,9 +45,10 @@ typedef struct fit_check {
    * at the recovery minus at the truth, from `loss_replicates` pairs of
    * renders on independent streams (within a pair both share photons):
    * the mean over pairs and its standard error from their spread. This is
-   * what the optimizer minimised. Each render's Monte Carlo error raises
-   * both losses alike, and what one heavy-tailed value adds is bounded by
-   * the clip, so this comparison can decide where the misfit above cannot. */
+   * what the optimizer minimised, with each render's own variance taken
+   * out of the terms within the clip (as the misfit takes it out of all).
+   * What one heavy-tailed value adds is bounded by the clip, so this
+   * comparison can decide where the misfit above cannot. */
   double loss_truth, loss_difference, loss_difference_se;
   int32_t loss_replicates;
 } fit_check_t;
