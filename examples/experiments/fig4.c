@@ -9,6 +9,7 @@
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
  *               [--coarse-window N] [--loss-clip C] [--independent-errors] [--smoothness L]
+ *               [--multiscale A]
  *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -68,7 +69,9 @@
  * value's residual counting linearly beyond C of its standard errors
  * (estimator.loss_clip; default 10 with --full, 0 = least squares, the
  * reduced default); --smoothness L adds a smoothness prior of weight L in
- * the loss's units (optimizer.smoothness; default 0, none);
+ * the loss's units (optimizer.smoothness; default 0, none); --multiscale A
+ * adds A times each coarser block's mean gradient to every entry's
+ * (optimizer.multiscale; default 0, none);
  * --independent-errors takes the data's Monte Carlo standard errors (and
  * so their weights) from a second render of the truth
  * (acquisition.independent_errors);
@@ -116,6 +119,7 @@ static int usage(const char *what) {
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
           "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--smoothness L]\n"
+          "                   [--multiscale A]\n"
           "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -502,7 +506,7 @@ int main(int argc, char **argv) {
   int coordinates = -1;
   double decay = -1.0, epsilon_start = -1.0;
   int64_t coarse_window = -1;
-  double loss_clip = -1.0, smoothness = -1.0;
+  double loss_clip = -1.0, smoothness = -1.0, multiscale = -1.0;
   const char *out = "out/fig4";
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -586,6 +590,9 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--smoothness") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e12, &smoothness) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--multiscale") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 100.0, &multiscale) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--decay") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &decay) < 0) return 2;
       ++i;
@@ -656,6 +663,7 @@ int main(int argc, char **argv) {
       if (coarse_window >= 0) sc.coarse_average_window = (int32_t)coarse_window;
       if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
       if (smoothness >= 0.0) sc.smoothness = smoothness;
+      if (multiscale >= 0.0) sc.multiscale = multiscale;
       if (independent_errors) sc.independent_errors = true;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {

@@ -165,6 +165,10 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
     fprintf(f, ", \"smoothness\": ");
     put_number(f, sc->smoothness);
   }
+  if (sc->multiscale > 0.0) {
+    fprintf(f, ", \"multiscale\": ");
+    put_number(f, sc->multiscale);
+  }
   fprintf(f, ",\n");
   fprintf(f, "                \"bounds\": {");
   for (int p = 0; p < 3; ++p) {

@@ -118,6 +118,7 @@ typedef struct recon_scene {
   int32_t coarse_average_window; /* each coarse stage's hand-on window; 0: average_window's */
   double time_budget;
   double smoothness;            /* the smoothness prior's weight (HETINV_OPTIMIZER_SMOOTHNESS); 0: none */
+  double multiscale;            /* the multi-scale step's weight (HETINV_OPTIMIZER_MULTISCALE); 0: none */
   double bounds_lo[3], bounds_hi[3];
   double init[3];               /* uniform initial values */
   bool init_at_truth;           /* start at the truth instead (a diagnostic) */

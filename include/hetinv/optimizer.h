@@ -131,7 +131,19 @@ enum hetinv_optimizer_param_id {
    *  cannot split (thin media, deep voxels); it biases sharp features.
    *  Added in 0.2. */
   HETINV_OPTIMIZER_SMOOTHNESS = 14,
-  HETINV_OPTIMIZER_PARAM_COUNT_ = 15 /**< not a parameter: one past the last */
+  /** Weight α of an optional multi-scale step (default 0 = none; [0, 100]).
+   *  Before each step the gradient of every entry gains α times the mean
+   *  gradient of its parameter over its block of cells at each coarser
+   *  scale: blocks of 2, 4, 8, ... cells along each axis, up to the whole
+   *  grid. A per-entry step (every method here) moves a field's smooth
+   *  component only as fast as each entry's own gradient, which the
+   *  estimator's noise dominates once the field is close; the blocks' means
+   *  average that noise away and move such a component coherently. It is
+   *  gradient descent in a pyramid of the stage's cells (a positive
+   *  definite preconditioner), so it changes the path, not the loss or its
+   *  minimum. Frozen entries neither move nor enter the means. Added in 0.2. */
+  HETINV_OPTIMIZER_MULTISCALE = 15,
+  HETINV_OPTIMIZER_PARAM_COUNT_ = 16 /**< not a parameter: one past the last */
 };
 
 /** Coordinates of the descent: values of HETINV_OPTIMIZER_COORDINATES. Pinned values. */

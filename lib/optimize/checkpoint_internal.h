@@ -10,11 +10,12 @@
 
 #define HV_CKPT_MAGIC "HVCKPT01"
 #define HV_CKPT_BYTE_ORDER_TAG UINT64_C(0x0102030405060708)
-/* Format 4 added HETINV_OPTIMIZER_SMOOTHNESS to the fingerprint's
- * tunables, format 3 HETINV_ESTIMATOR_LOSS_CLIP to its estimator tunables.
- * Formats 2 and 3 are still read: the tunables they lack were 0 (no prior,
- * least squares) in every such run. */
-#define HV_CKPT_FORMAT_VERSION 4u
+/* Format 5 added HETINV_OPTIMIZER_MULTISCALE to the fingerprint's
+ * tunables, format 4 HETINV_OPTIMIZER_SMOOTHNESS, format 3
+ * HETINV_ESTIMATOR_LOSS_CLIP to its estimator tunables. Formats 2 to 4 are
+ * still read: the tunables they lack were 0 (no multi-scale step, no
+ * prior, least squares) in every such run. */
+#define HV_CKPT_FORMAT_VERSION 5u
 #define HV_CKPT_FORMAT_OLDEST 2u
 #define HV_CKPT_FNV_OFFSET UINT64_C(0xcbf29ce484222325)
 

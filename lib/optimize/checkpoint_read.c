@@ -372,13 +372,16 @@ static uint64_t stored_checksum(const reader_t *rd) {
  * tunable lists end before the tunables added since (each the last of its
  * list when added), which read as 0, their value in every such run. */
 static void read_fingerprint(reader_t *rd, uint64_t version, hv_ckpt_fingerprint_t *saved) {
-  _Static_assert(HETINV_OPTIMIZER_SMOOTHNESS + 1 == HETINV_OPTIMIZER_PARAM_COUNT_, "SMOOTHNESS is the last tunable");
+  _Static_assert(HETINV_OPTIMIZER_MULTISCALE + 1 == HETINV_OPTIMIZER_PARAM_COUNT_, "MULTISCALE is the last tunable");
+  _Static_assert(HETINV_OPTIMIZER_SMOOTHNESS + 1 == HETINV_OPTIMIZER_MULTISCALE, "SMOOTHNESS came just before");
   _Static_assert(HETINV_ESTIMATOR_LOSS_CLIP + 1 == HETINV_ESTIMATOR_PARAM_COUNT_, "LOSS_CLIP is the last tunable");
   _Static_assert(offsetof(hv_ckpt_fingerprint_t, lo) ==
                      offsetof(hv_ckpt_fingerprint_t, param) + sizeof saved->param, "no padding");
   _Static_assert(offsetof(hv_ckpt_fingerprint_t, set_hash) ==
                      offsetof(hv_ckpt_fingerprint_t, est_param) + sizeof saved->est_param, "no padding");
-  size_t params = version >= 4 ? HETINV_OPTIMIZER_PARAM_COUNT_ : HETINV_OPTIMIZER_SMOOTHNESS;
+  size_t params = version >= 5   ? HETINV_OPTIMIZER_PARAM_COUNT_
+                  : version >= 4 ? HETINV_OPTIMIZER_MULTISCALE
+                                 : HETINV_OPTIMIZER_SMOOTHNESS;
   size_t est_params = version >= 3 ? HETINV_ESTIMATOR_PARAM_COUNT_ : HETINV_ESTIMATOR_LOSS_CLIP;
   memset(saved, 0, sizeof *saved);
   unsigned char *base = (unsigned char *)saved;

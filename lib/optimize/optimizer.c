@@ -30,6 +30,7 @@ static const param_info_t PARAMS[HETINV_OPTIMIZER_PARAM_COUNT_] = {
     [HETINV_OPTIMIZER_CHECKPOINT_INTERVAL] = {10, 1, 1e15, true, "HETINV_OPTIMIZER_CHECKPOINT_INTERVAL"},
     [HETINV_OPTIMIZER_COORDINATES] = {HETINV_COORDINATES_NATIVE, 0, HETINV_COORDINATES_COUNT_ - 1, true, "HETINV_OPTIMIZER_COORDINATES"},
     [HETINV_OPTIMIZER_SMOOTHNESS] = {0, 0, 1e12, false, "HETINV_OPTIMIZER_SMOOTHNESS"},
+    [HETINV_OPTIMIZER_MULTISCALE] = {0, 0, 100, false, "HETINV_OPTIMIZER_MULTISCALE"},
 };
 
 const char *hv_optimizer_param_name(hetinv_optimizer_param_t param) {
@@ -72,7 +73,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
 void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt) {
   const hetinv_context_t *ctx = opt->ctx;
   double **arrays[] = {&opt->pi, &opt->acc1, &opt->acc2, &opt->ring,
-                       &opt->scale, &opt->lo_k, &opt->hi_k, &opt->grad};
+                       &opt->scale, &opt->lo_k, &opt->hi_k, &opt->grad, &opt->multiscale};
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i) {
     hv_free(ctx, *arrays[i]);
     *arrays[i] = NULL;
@@ -288,11 +289,12 @@ hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t 
   /* Allocated before the old state is released, so that a failure leaves
    * the optimizer as it was (a failed stage change can then be retried). */
   int32_t window = (int32_t)opt->param[HETINV_OPTIMIZER_AVERAGE_WINDOW];
-  enum { VECTORS = 7 };
+  enum { VECTORS = 8 };
   double *v[VECTORS + 1];
   bool ok = true;
   for (int i = 0; i < VECTORS; ++i) {
-    v[i] = hv_calloc(ctx, k, sizeof(double));
+    /* The multi-scale step's block sums: fewer than 2k (multiscale.c). */
+    v[i] = hv_calloc(ctx, i == 7 ? 2 * k : k, sizeof(double));
     ok = ok && v[i] != NULL;
   }
   size_t ring_len;
@@ -307,7 +309,7 @@ hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t 
   hv_optimizer_free_stage_arrays(opt);
   opt->window = window;
   opt->pi = v[0], opt->acc1 = v[1], opt->acc2 = v[2], opt->scale = v[3];
-  opt->lo_k = v[4], opt->hi_k = v[5], opt->grad = v[6], opt->ring = v[VECTORS];
+  opt->lo_k = v[4], opt->hi_k = v[5], opt->grad = v[6], opt->multiscale = v[7], opt->ring = v[VECTORS];
   opt->pair_of_sigma_s = pairs[0], opt->pair_of_g = pairs[1];
   opt->k = k;
   hv_optimizer_stage_bounds(opt);

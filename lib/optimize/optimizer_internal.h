@@ -62,6 +62,7 @@ struct hetinv_optimizer {
 
   /* Derived per stage (not saved: recomputed from the configuration). */
   double *scale, *lo_k, *hi_k, *grad;
+  double *multiscale; /* the multi-scale step's block sums (2k doubles) */
   /* Reduced coordinates: the g entry of each free σs entry's cell when that
    * g is free too (else -1), and the inverse (-1 for an unpaired entry). */
   int64_t *pair_of_sigma_s, *pair_of_g;
@@ -103,6 +104,11 @@ double hv_stage_epsilon(const hetinv_optimizer_t *opt);
  * and grad untouched when HETINV_OPTIMIZER_SMOOTHNESS is 0. */
 double hv_smoothness_add(const hetinv_optimizer_t *opt, const hetinv_param_map_t *map,
                          const double *pi, double *grad);
+
+/* multiscale.c: adds to opt->grad the multi-scale step's block means (the
+ * current stage's entries, on its map; entries frozen in `frozen`, which
+ * may be NULL, left out); nothing when HETINV_OPTIMIZER_MULTISCALE is 0. */
+void hv_multiscale_apply(hetinv_optimizer_t *opt, const hetinv_param_map_t *map, const uint8_t *frozen);
 
 /* checkpoint.c */
 hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *path);

@@ -106,6 +106,7 @@ static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est,
   *loss *= f;
   for (size_t i = 0; i < opt->k; ++i) opt->grad[i] *= f;
   *loss += hv_smoothness_add(opt, st->map, opt->pi, opt->grad);
+  hv_multiscale_apply(opt, st->map, st->frozen);
   *step = hv_method_step(opt, st->frozen, hv_stage_epsilon(opt));
 
   memcpy(opt->ring + (size_t)opt->ring_head * opt->k, opt->pi, opt->k * sizeof(double));

@@ -296,6 +296,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10, 1, 1e15},
       {HETINV_OPTIMIZER_COORDINATES, HETINV_COORDINATES_NATIVE, 0, HETINV_COORDINATES_COUNT_ - 1},
       {HETINV_OPTIMIZER_SMOOTHNESS, 0, 0, 1e12},
+      {HETINV_OPTIMIZER_MULTISCALE, 0, 0, 100},
   };
   assert_int_equal(sizeof expect / sizeof expect[0], HETINV_OPTIMIZER_PARAM_COUNT_);
   for (size_t i = 0; i < sizeof expect / sizeof expect[0]; ++i) {
@@ -317,7 +318,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
   double lo = 7;
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(-1, &lo, NULL));
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(HETINV_OPTIMIZER_PARAM_COUNT_, &lo, NULL));
-  assert_message_contains("15");
+  assert_message_contains("16");
   assert_true(lo == 7);
   hetinv_optimizer_destroy(&opt);
 }
@@ -352,6 +353,9 @@ static void tunables_reject_bad_values_naming_them(void **state) {
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 0, "HETINV_OPTIMIZER_CHECKPOINT_INTERVAL", "is 0;"},
       {HETINV_OPTIMIZER_SMOOTHNESS, -0.5, "HETINV_OPTIMIZER_SMOOTHNESS", "is -0.5;"},
       {HETINV_OPTIMIZER_SMOOTHNESS, NaN, "HETINV_OPTIMIZER_SMOOTHNESS", "is nan;"},
+      {HETINV_OPTIMIZER_MULTISCALE, -0.5, "HETINV_OPTIMIZER_MULTISCALE", "is -0.5;"},
+      {HETINV_OPTIMIZER_MULTISCALE, 101, "HETINV_OPTIMIZER_MULTISCALE", "is 101;"},
+      {HETINV_OPTIMIZER_MULTISCALE, NaN, "HETINV_OPTIMIZER_MULTISCALE", "is nan;"},
   };
   for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
     double before = -1, after = -2;
@@ -371,7 +375,7 @@ static void tunables_reject_bad_values_naming_them(void **state) {
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, -1, 0));
   assert_message_contains("-1");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PARAM_COUNT_, 0));
-  assert_message_contains("15");
+  assert_message_contains("16");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_get_param(opt, 99, &v));
   assert_message_contains("99");
   hetinv_optimizer_destroy(&opt);
@@ -1430,7 +1434,7 @@ static void damaged_checkpoints_are_refused(void **state) {
   /* An intact file of a later or an earlier format version is
    * unsupported, not corrupt. */
   memcpy(copy, data, len);
-  uint64_t version = 5;
+  uint64_t version = 6;
   memcpy(copy + 16, &version, 8);
   sum = fnv1a64(copy, len - 8);
   memcpy(copy + len - 8, &sum, 8);
@@ -1712,20 +1716,22 @@ static void forged_checkpoints_are_refused(void **state) {
   assert_int_equal(failures, 0);
 }
 
-/* The checkpoint at `data` rewritten in an older format: version 3 lacks
- * HETINV_OPTIMIZER_SMOOTHNESS in the fingerprint's tunables, version 2
- * also HETINV_ESTIMATOR_LOSS_CLIP in its estimator tunables (each the last
- * of its list). Returns the new length. */
+/* The checkpoint at `data` rewritten in an older format: version 4 lacks
+ * HETINV_OPTIMIZER_MULTISCALE in the fingerprint's tunables, version 3
+ * also HETINV_OPTIMIZER_SMOOTHNESS (the two last of the list), version 2
+ * also HETINV_ESTIMATOR_LOSS_CLIP in its estimator tunables (the last of
+ * its list). Returns the new length. */
 static size_t older_format(const unsigned char *data, size_t len, uint64_t version, unsigned char *out) {
   layout_t l = coarse_layout(len);
-  size_t smoothness = 24 + 8 * (4 + 3 * 64 + HETINV_OPTIMIZER_SMOOTHNESS);
-  size_t cut[2] = {smoothness, l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP};
+  size_t multiscale = 24 + 8 * (4 + 3 * 64 + HETINV_OPTIMIZER_MULTISCALE);
+  size_t cut[2] = {version == 4 ? multiscale : multiscale - 8, l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP};
+  size_t bytes[2] = {version == 4 ? 8 : 16, 8};
   int cuts = version == 2 ? 2 : 1;
   size_t n = 0, from = 0;
   for (int c = 0; c < cuts; ++c) {
     memcpy(out + n, data + from, cut[c] - from);
     n += cut[c] - from;
-    from = cut[c] + 8;
+    from = cut[c] + bytes[c];
   }
   memcpy(out + n, data + from, len - from);
   n += len - from;
@@ -1735,10 +1741,11 @@ static size_t older_format(const unsigned char *data, size_t len, uint64_t versi
   return n;
 }
 
-/* Checkpoints of formats 2 and 3 (before HETINV_ESTIMATOR_LOSS_CLIP and
- * HETINV_OPTIMIZER_SMOOTHNESS: tunables fewer in the fingerprint) resume
- * as least squares without a prior and finish as the uninterrupted run;
- * under a clipped loss or a prior they are refused. */
+/* Checkpoints of formats 2 to 4 (before HETINV_ESTIMATOR_LOSS_CLIP,
+ * HETINV_OPTIMIZER_SMOOTHNESS and HETINV_OPTIMIZER_MULTISCALE: tunables
+ * fewer in the fingerprint) resume as least squares without a prior or a
+ * multi-scale step and finish as the uninterrupted run; under a clipped
+ * loss (formats 2), a prior (2, 3) or a multi-scale step they are refused. */
 static void older_format_checkpoints_resume(void **state) {
   const problem_t *p = *state;
   ht_tmpdir_create("optimizer-older-formats");
@@ -1753,7 +1760,7 @@ static void older_format_checkpoints_resume(void **state) {
   assert_non_null(older);
   outcome_t *o = calloc(2, sizeof *o);
   reference_run(p, &s, 1, &o[0]);
-  for (uint64_t version = 2; version <= 3; ++version) {
+  for (uint64_t version = 2; version <= 4; ++version) {
     ht_write_file(old, older, older_format(data, len, version, older));
     resume_and_finish(p, &s, old, 4, &o[0], &o[1]);
     assert_same_outcome(&o[0], &o[1]);
@@ -1768,6 +1775,11 @@ static void older_format_checkpoints_resume(void **state) {
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_SMOOTHNESS, 2.0));
     assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_resume(opt, old));
     assert_message_contains("HETINV_OPTIMIZER_SMOOTHNESS is 0 in the checkpoint and 2 here");
+    hetinv_optimizer_destroy(&opt);
+    opt = make_optimizer(p, &s);
+    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_MULTISCALE, 0.5));
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_resume(opt, old));
+    assert_message_contains("HETINV_OPTIMIZER_MULTISCALE is 0 in the checkpoint and 0.5 here");
     hetinv_optimizer_destroy(&opt);
   }
   free(o);
