@@ -60,6 +60,18 @@ static void fixture_make(fixture_t *f, uint64_t *seed) {
   assert_false(f->grid.uniform);
 }
 
+/* The same box with equal voxels: a uniform grid (the fast path). */
+static void uniform_fixture_make(fixture_t *f) {
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  assert_ok(hetinv_context_create(&init, &f->ctx));
+  const int32_t dims[3] = {NX, NY, NZ};
+  assert_ok(hetinv_medium_create(f->ctx, LO, HI, dims, &f->medium));
+  assert_ok(hetinv_medium_fill(f->medium, 0.7, 3.1, 0.4));
+  assert_ok(hetinv_medium_commit(f->medium));
+  assert_ok(hv_grid_build(f->medium, &f->grid));
+  assert_true(f->grid.uniform);
+}
+
 static void fixture_free(fixture_t *f) {
   hv_grid_release(&f->grid);
   hetinv_medium_destroy(&f->medium);
@@ -288,17 +300,9 @@ static void rays_to_boundary_match_reference(void **state) {
 static void uniform_grid_matches_stepped(void **state) {
   (void)state;
   uint64_t seed = UINT64_C(0x082efa98ec4e6c89);
-  hetinv_context_t *ctx = NULL;
-  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
-  assert_ok(hetinv_context_create(&init, &ctx));
-  const int32_t dims[3] = {NX, NY, NZ};
-  hetinv_medium_t *m = NULL;
-  assert_ok(hetinv_medium_create(ctx, LO, HI, dims, &m));
-  assert_ok(hetinv_medium_fill(m, 0.7, 3.1, 0.4));
-  assert_ok(hetinv_medium_commit(m));
-  hv_grid_t fast;
-  assert_ok(hv_grid_build(m, &fast));
-  assert_true(fast.uniform);
+  fixture_t f;
+  uniform_fixture_make(&f);
+  hv_grid_t fast = f.grid;
   hv_grid_t stepped = fast; /* the same voxels, walked one by one */
   stepped.uniform = 0;
   for (int i = 0; i < RAYS; ++i) {
@@ -332,9 +336,7 @@ static void uniform_grid_matches_stepped(void **state) {
     double ts = hv_ray_to_boundary(&stepped, &bs, &ds, &fs, NULL);
     assert_true(fabs(tf - ts) <= 1e-12 * (1.0 + ts) && fabs(df - ds) <= 1e-12 * (1.0 + ds) && ff == fs);
   }
-  hv_grid_release(&fast);
-  hetinv_medium_destroy(&m);
-  hetinv_context_destroy(&ctx);
+  fixture_free(&f);
 }
 
 typedef struct visits {
@@ -358,18 +360,10 @@ static void record_visit(void *user, int64_t k, double length) {
 static void continuous_log_rays_split_as_reference(void **state) {
   (void)state;
   uint64_t seed = UINT64_C(0x452821e638d01377);
-  hetinv_context_t *ctx = NULL;
-  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
-  assert_ok(hetinv_context_create(&init, &ctx));
-  const int32_t dims[3] = {NX, NY, NZ};
-  hetinv_medium_t *m = NULL;
-  assert_ok(hetinv_medium_create(ctx, LO, HI, dims, &m));
-  assert_ok(hetinv_medium_fill(m, 0.7, 3.1, 0.4));
-  assert_ok(hetinv_medium_commit(m));
-  hv_grid_t g;
-  assert_ok(hv_grid_build(m, &g));
-  assert_true(g.uniform);
-  hv_path_log_t log = {.ctx = ctx};
+  fixture_t f;
+  uniform_fixture_make(&f);
+  const hv_grid_t g = f.grid;
+  hv_path_log_t log = make_log(&f);
   int rays = 0;
   for (int path = 0; path < 200; ++path) {
     hv_path_log_reset(&log);
@@ -424,9 +418,7 @@ static void continuous_log_rays_split_as_reference(void **state) {
   }
   assert_true(rays == 200 * 40);
   hv_path_log_release(&log);
-  hv_grid_release(&g);
-  hetinv_medium_destroy(&m);
-  hetinv_context_destroy(&ctx);
+  fixture_free(&f);
 }
 
 int main(void) {
