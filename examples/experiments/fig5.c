@@ -59,7 +59,8 @@ static void print_usage(FILE *f) {
           "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
           "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
           "                   [--loss-clip C] [--coarse-window N]\n"
-          "                   [--source-stride N] [--smoothness L] [--truth-seed S]\n"
+          "                   [--source-stride N] [--smoothness L] [--multiscale A]\n"
+          "                   [--truth-seed S]\n"
           "                   [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
@@ -83,6 +84,8 @@ static void print_usage(FILE *f) {
           "                  iterates (optimizer.coarse_average_window)\n"
           "  --smoothness L  a smoothness prior of weight L in the loss's units\n"
           "                  (optimizer.smoothness; default 0, none)\n"
+          "  --multiscale A  add A times each parameter's mean gradient over its blocks\n"
+          "                  of 2, 4, 8, ... cells (optimizer.multiscale; default 0, none)\n"
           "  --truth-seed S  another smoke volume (default 5, the figure's)\n"
           "  --quiet         no progress line\n"
           "  --write-scene   write the set-up as a render scene, the truth and a\n"
@@ -309,7 +312,7 @@ int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scene = false, cameras = false;
   const char *out_dir = NULL;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
-  double min_snr = -1.0, loss_clip = -1.0, smoothness = -1.0;
+  double min_snr = -1.0, loss_clip = -1.0, smoothness = -1.0, multiscale = -1.0;
   int64_t coarse_window = -1, source_stride = -1, truth_seed = -1;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -344,6 +347,9 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--smoothness") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 1e12, &smoothness) < 0) return 2;
+    } else if (strcmp(a, "--multiscale") == 0) {
+      ++i;
+      if (recon_parse_real(PROG, a, v, 0.0, 100.0, &multiscale) < 0) return 2;
     } else if (strcmp(a, "--truth-seed") == 0) {
       ++i;
       if (recon_parse_count(PROG, a, v, 0, INT64_MAX, &truth_seed) < 0) return 2;
@@ -376,6 +382,7 @@ int main(int argc, char **argv) {
   if (min_snr >= 0.0) sc.min_snr = min_snr;
   if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
   if (smoothness >= 0.0) sc.smoothness = smoothness;
+  if (multiscale >= 0.0) sc.multiscale = multiscale;
   if (truth_seed >= 0) sc.truth_seed = (uint64_t)truth_seed;
   if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
   if (source_stride > 0) sc.source_stride = (int32_t)source_stride;
