@@ -9,7 +9,7 @@
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
  *               [--coarse-window N] [--loss-clip C] [--independent-errors] [--smoothness L]
- *               [--multiscale A]
+ *               [--multiscale A] [--truth-photons N]
  *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -71,7 +71,9 @@
  * reduced default); --smoothness L adds a smoothness prior of weight L in
  * the loss's units (optimizer.smoothness; default 0, none); --multiscale A
  * adds A times each coarser block's mean gradient to every entry's
- * (optimizer.multiscale; default 0, none);
+ * (optimizer.multiscale; default 0, none); --truth-photons N renders the
+ * simulated measurements with N photons per source (acquisition.photons;
+ * default 30000): their Monte Carlo error is part of the data's noise;
  * --independent-errors takes the data's Monte Carlo standard errors (and
  * so their weights) from a second render of the truth
  * (acquisition.independent_errors);
@@ -119,7 +121,7 @@ static int usage(const char *what) {
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
           "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--smoothness L]\n"
-          "                   [--multiscale A]\n"
+          "                   [--multiscale A] [--truth-photons N]\n"
           "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -501,6 +503,7 @@ int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
   bool bound = false, bound_only = false, init_truth = false, fit = false, independent_errors = false;
   int64_t first_volume = 0, volumes = -1, iterations = -1, photons = -1, minibatch = -1, grid = -1, threads = -1;
+  int64_t truth_photons = -1;
   int64_t bound_photons = -1, bound_replicates = 4, fit_photons = 20000, fit_replicates = 4;
   double scale = -1.0, epsilon = -1.0, min_snr = -1.0;
   int coordinates = -1;
@@ -563,6 +566,9 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--photons") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &photons) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--truth-photons") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &truth_photons) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--minibatch") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, 100000, &minibatch) < 0) return 2;
@@ -664,6 +670,7 @@ int main(int argc, char **argv) {
       if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
       if (smoothness >= 0.0) sc.smoothness = smoothness;
       if (multiscale >= 0.0) sc.multiscale = multiscale;
+      if (truth_photons > 0) sc.truth_photons = truth_photons;
       if (independent_errors) sc.independent_errors = true;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
