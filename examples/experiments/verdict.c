@@ -7,8 +7,7 @@
 
 #include <hetinv/hetinv.h>
 
-/* One parameter's .vol into a malloc'd array; its dims in d. */
-static float *read_vol(hetinv_context_t *ctx, const char *path, int32_t d[3], char *msg, size_t n) {
+float *experiment_vol_load(hetinv_context_t *ctx, const char *path, int32_t d[3], char *msg, size_t n) {
   hetinv_vol_header_t h;
   float *x = NULL;
   if (hetinv_vol_read_header(ctx, path, &h) == HETINV_SUCCESS) {
@@ -32,6 +31,17 @@ static float *read_vol(hetinv_context_t *ctx, const char *path, int32_t d[3], ch
   return NULL;
 }
 
+void experiment_verdict_voxel(experiment_verdict_t *v, int p, double truth, double recovered, double bound,
+                              double max_error) {
+  if (!(bound > 0.0) || !isfinite(bound) || truth == 0.0) return;
+  double err = fabs(recovered - truth) / fabs(truth);
+  ++v->voxels[p];
+  v->over[p] += err > max_error;
+  /* The allowance grows with the bound only where the bound exceeds the target. */
+  double allowed = bound > max_error ? VERDICT_BOUND_FACTOR * bound : max_error;
+  v->unexplained[p] += err > allowed;
+}
+
 static int add_param(hetinv_context_t *ctx, const char *dir, int p, hetinv_image_t *bound, bool local,
                      experiment_verdict_t *v, char *msg, size_t n) {
   const char *name = hetinv_param_name((hetinv_param_t)p);
@@ -43,9 +53,9 @@ static int add_param(hetinv_context_t *ctx, const char *dir, int p, hetinv_image
     return -1;
   }
   snprintf(path, sizeof path, "%s/truth_%s.vol", dir, name);
-  float *t = read_vol(ctx, path, dt, msg, n);
+  float *t = experiment_vol_load(ctx, path, dt, msg, n);
   snprintf(path, sizeof path, "%s/recovered_%s.vol", dir, name);
-  float *r = t ? read_vol(ctx, path, dr, msg, n) : NULL;
+  float *r = t ? experiment_vol_load(ctx, path, dr, msg, n) : NULL;
   int status = t && r ? 0 : -1;
   hetinv_image_get_size(bound, &w, &h, NULL);
   if (status == 0 && (dt[0] != dr[0] || dt[1] != dr[1] || dt[2] != dr[2] || w != dt[0] || h != dt[2])) {
@@ -58,13 +68,7 @@ static int add_param(hetinv_context_t *ctx, const char *dir, int p, hetinv_image
     for (int32_t x = 0; x < dt[0]; ++x) {
       size_t k = ((size_t)z * (size_t)dt[1] + (size_t)(dt[1] / 2)) * (size_t)dt[0] + (size_t)x;
       double bk = b[(size_t)z * (size_t)w + (size_t)x];
-      if (!(bk > 0.0) || !isfinite(bk) || t[k] == 0.0f) continue;
-      double err = fabs((double)r[k] - (double)t[k]) / fabs((double)t[k]);
-      ++v->voxels[p];
-      v->over[p] += err > VERDICT_MAX_ERROR;
-      /* The allowance grows with the bound only where the bound exceeds 15 %. */
-      double allowed = bk > VERDICT_MAX_ERROR ? VERDICT_BOUND_FACTOR * bk : VERDICT_MAX_ERROR;
-      v->unexplained[p] += err > allowed;
+      experiment_verdict_voxel(v, p, t[k], r[k], bk, VERDICT_MAX_ERROR);
     }
   }
   free(t);

@@ -6,6 +6,9 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
+
+#include <hetinv/hetinv.h>
 
 #define VERDICT_MEAN_ERROR 0.07  /* the paper's mean relative error */
 #define VERDICT_MAX_ERROR 0.15   /* the paper's max relative error */
@@ -23,6 +26,16 @@ typedef struct experiment_verdict {
  * the bound, so a miss it explains the full bound explains too). Voxels of
  * the bound's section only (the middle of y). 0, or -1 with
  * "<file>: <reason>" in msg. */
+/* Counts one voxel of parameter p into *v against a per-voxel target
+ * max_error (the relative error) and its relative bound: nothing if the
+ * bound is not finite and positive or the truth is 0. */
+void experiment_verdict_voxel(experiment_verdict_t *v, int p, double truth, double recovered, double bound,
+                              double max_error);
+
+/* A 1-channel .vol into a malloc'd array, its dims in d; NULL with
+ * "<path>: <reason>" in msg. */
+float *experiment_vol_load(hetinv_context_t *ctx, const char *path, int32_t d[3], char *msg, size_t n);
+
 int experiment_verdict_add(const char *dir, bool local, experiment_verdict_t *v, char *msg, size_t msg_size);
 
 #endif

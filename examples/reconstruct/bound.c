@@ -134,6 +134,24 @@ static void summarise(recon_bound_t *b, size_t voxels) {
   free(sorted);
 }
 
+/* Mean, max and undetermined count of the local bound at one radius. */
+static void local_summary(recon_bound_t *b, int32_t radius, double *const rel[3], size_t voxels) {
+  for (int p = 0; p < 3; ++p) {
+    double sum = 0.0, mx = 0.0;
+    size_t m = 0;
+    for (size_t v = 0; v < voxels; ++v) {
+      double x = rel[p][v];
+      if (!isfinite(x)) continue;
+      sum += x;
+      mx = fmax(mx, x);
+      ++m;
+    }
+    b->local_mean[radius][p] = m ? sum / (double)m : (double)NAN;
+    b->local_max[radius][p] = m ? mx : (double)NAN;
+    b->local_undefined[radius][p] = voxels - m;
+  }
+}
+
 /* The local bounds of recon_bound_t from F̂ (the replicates of
  * hetinv_estimator_crb once more: same estimator, same streams). */
 static hetinv_result_t local_bounds(hetinv_estimator_t *est, const hetinv_medium_t *truth, recon_imaging_t *im,
@@ -162,21 +180,8 @@ static hetinv_result_t local_bounds(hetinv_estimator_t *est, const hetinv_medium
       r = hetinv_param_map_entry(map, i, &p, &cell);
       rel[p][cell] = sd[i] / fabs(pi[i]);
     }
-    for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
-      double sum = 0.0, mx = 0.0;
-      size_t m = 0;
-      for (size_t v = 0; v < voxels; ++v) {
-        double x = rel[p][v];
-        if (!isfinite(x)) continue;
-        sum += x;
-        mx = fmax(mx, x);
-        ++m;
-      }
-      b->local_mean[radius][p] = m ? sum / (double)m : (double)NAN;
-      b->local_max[radius][p] = m ? mx : (double)NAN;
-      b->local_undefined[radius][p] = voxels - m;
-    }
     if (r != HETINV_SUCCESS) break;
+    local_summary(b, radius, rel, voxels);
     b->local_radii = radius + 1;
     bool as_determined = true;
     for (int p = 0; p < 3; ++p) as_determined = as_determined && b->local_undefined[radius][p] <= b->local_undefined[0][p];
@@ -188,6 +193,48 @@ static hetinv_result_t local_bounds(hetinv_estimator_t *est, const hetinv_medium
   for (int p = 0; p < 3; ++p) free(rel[p]);
   free(F);
   free(sd);
+  return r;
+}
+
+/* Maps past the dense matrix's limit: the local bound at radius 0 from
+ * F's blocks on its diagonal (hetinv_estimator_fisher_blocks, matrix-free),
+ * into b->local; sd NaN (the full bound is not estimated) and lower
+ * sqrt(1/F_kk) from the blocks' diagonals. */
+static hetinv_result_t block_bounds(hetinv_estimator_t *est, const hetinv_medium_t *truth, recon_imaging_t *im,
+                                    const double *var, const hetinv_param_map_t *map, const double *pi,
+                                    int32_t replicates, int32_t spacing, double *sd, double *lower,
+                                    recon_bound_t *b) {
+  size_t n = hetinv_measurements_value_count(im->set), k = hetinv_param_map_size(map);
+  size_t voxels = hetinv_medium_voxel_count(truth);
+  const size_t P = 3; /* an identity map of all three parameters */
+  double *B = calloc(voxels * P * P, sizeof *B), *local = calloc(k, sizeof *local);
+  double *rel[3] = {NULL, NULL, NULL};
+  hetinv_result_t r = B && local ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
+    b->local[p] = rel[p] = calloc(voxels, sizeof(double));
+    if (rel[p] == NULL) r = HETINV_ERROR_OUT_OF_MEMORY;
+  }
+  if (r == HETINV_SUCCESS) {
+    r = hetinv_estimator_fisher_blocks(est, truth, im->set, var, n, map, spacing, replicates, B, NULL, k);
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_fisher_blocks_crb(map, B, k, local);
+  for (size_t i = 0; r == HETINV_SUCCESS && i < k; ++i) {
+    hetinv_param_t p = HETINV_PARAM_SIGMA_A;
+    size_t cell = 0;
+    r = hetinv_param_map_entry(map, i, &p, &cell);
+    double f = B[(cell * P + (size_t)p) * P + (size_t)p];
+    rel[p][cell] = local[i] / fabs(pi[i]);
+    sd[i] = (double)NAN;
+    lower[i] = f > 0.0 ? 1.0 / sqrt(f) : (f == 0.0 ? (double)INFINITY : (double)NAN);
+  }
+  if (r == HETINV_SUCCESS) {
+    local_summary(b, 0, rel, voxels);
+    b->local_radii = 1;
+    b->local_best = 0;
+    b->spacing = spacing;
+  }
+  free(B);
+  free(local);
   return r;
 }
 
@@ -230,7 +277,13 @@ hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)photons);
   if (r == HETINV_SUCCESS && sc->batches > 0) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, sc->batches);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
-  if (r == HETINV_SUCCESS) {
+  if (r == HETINV_SUCCESS && k > HETINV_FISHER_MAX_ENTRIES) {
+    r = block_bounds(est, truth, im, var, map, pi, replicates, sc->bound_spacing > 0 ? sc->bound_spacing : 2,
+                     sd, lower, b);
+    for (size_t i = 0; i < k; ++i) se[i] = (double)NAN;
+    hetinv_result_t back = hetinv_measurements_set_mask(im->set, saved_mask, n);
+    if (r == HETINV_SUCCESS) r = back;
+  } else if (r == HETINV_SUCCESS) {
     r = hetinv_estimator_crb(est, truth, im->set, var, n, map, replicates, sd, se, lower, k,
                              &b->positive_definite);
     /* Not positive definite (at the paper's size, 1875 entries, it is not
@@ -253,6 +306,7 @@ hetinv_result_t recon_bound_compute(hetinv_context_t *ctx, const recon_scene_t *
     b->done = true;
     b->photons = photons;
     b->replicates = replicates;
+    b->entries = k;
     b->seconds = recon_now() - t0;
   }
   hetinv_estimator_destroy(&est);
@@ -284,12 +338,16 @@ void recon_bound_print(const recon_bound_t *b, FILE *f) {
              "estimate, per voxel (%lld photons per emitter, %d replicates, %.1f s):\n",
           b->at_recovery ? "recovery (no truth given)" : "truth", (long long)b->photons, (int)b->replicates,
           b->seconds);
-  if (!b->positive_definite) {
+  if (b->spacing > 0) {
+    fprintf(f, "  %zu entries, past the dense Fisher matrix's %d: only the local bound at radius 0, from\n"
+               "  F's blocks on its diagonal (matrix-free, probes on classes of voxels %d apart)\n",
+            b->entries, HETINV_FISHER_MAX_ENTRIES, (int)b->spacing);
+  } else if (!b->positive_definite) {
     fprintf(f, "  the estimated Fisher matrix is not positive definite: the measurements cannot tell\n"
                "  some parameters apart at this photon count (more --bound-photons, or a coarser map)\n");
   }
-  fprintf(f, "  parameter   mean       median     max        mean s.e.  undetermined\n");
-  for (int p = 0; p < 3; ++p) {
+  if (b->spacing == 0) fprintf(f, "  parameter   mean       median     max        mean s.e.  undetermined\n");
+  for (int p = 0; b->spacing == 0 && p < 3; ++p) {
     fprintf(f, "  %-9s %8.3g %%  %8.3g %%  %8.3g %%  %8.2g %%  %zu\n", hetinv_param_name(p),
             100.0 * b->mean[p], 100.0 * b->median[p], 100.0 * b->max[p], 100.0 * b->se_mean[p],
             b->infinite[p] + b->undefined[p]);

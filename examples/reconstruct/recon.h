@@ -119,6 +119,7 @@ typedef struct recon_scene {
   double time_budget;
   double smoothness;            /* the smoothness prior's weight (HETINV_OPTIMIZER_SMOOTHNESS); 0: none */
   double multiscale;            /* the multi-scale step's weight (HETINV_OPTIMIZER_MULTISCALE); 0: none */
+  int32_t bound_spacing;        /* maps past the dense Fisher limit: the blocks' probe spacing (0: 2) */
   double bounds_lo[3], bounds_hi[3];
   double init[3];               /* uniform initial values */
   bool init_at_truth;           /* start at the truth instead (a diagnostic) */
@@ -330,6 +331,11 @@ typedef struct recon_bound {
   int32_t local_radii;
   int32_t local_best; /* the largest radius with no more undetermined voxels than radius 0 */
   double *local[3];   /* per voxel at local_best */
+  /* > 0: the map was past HETINV_FISHER_MAX_ENTRIES, and local (radius 0)
+   * comes from F's blocks (hetinv_estimator_fisher_blocks) at this spacing;
+   * rel is NaN. */
+  int32_t spacing;
+  size_t entries;
   double local_mean[RECON_LOCAL_RADII][3], local_max[RECON_LOCAL_RADII][3];
   size_t local_undefined[RECON_LOCAL_RADII][3];
 } recon_bound_t;

@@ -181,6 +181,62 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
 HETINV_API hetinv_result_t hetinv_fisher_local_crb(const hetinv_param_map_t *map, const double *fisher,
                                                    size_t k, int32_t radius, double *sd);
 
+/**
+ * @brief Matrix-free, unbiased estimate of the Fisher matrix's blocks on
+ *        its diagonal, one per cell of the map, for maps of any size: what
+ *        the local bound at radius 0 needs (hetinv_fisher_blocks_crb()).
+ *
+ * A cell's block is F restricted to the cell's own P free parameters
+ * (P = k / cells). The cells are split into classes by their coordinates
+ * modulo @p spacing; each probe z puts random signs (a hash of the context
+ * seed, the replicate, the probe and the entry, independent of the
+ * photons) on one free parameter of one class's cells. A tangent pass
+ * (stream s + 2r, all probes of replicate r at once) and a gradient pass
+ * per probe (stream s + 2r + 1) give g = Ĵ₂ᵀ W Ĵ₁ z, and s_{cp} g_{cb} has
+ * expectation F_{cb,cp} exactly. Besides the Monte Carlo noise its spread
+ * holds the entries F_{cb,j} of the other cells j of the class, which
+ * fall off with their distance (≥ spacing cells on some axis): a wider
+ * spacing gives less noise for more passes. Blocks are symmetrised.
+ *
+ * Costs per replicate: one tangent pass of T = classes·P tangents and T
+ * gradient passes, classes = spacing³ (fewer on axes with fewer cells);
+ * memory 3·voxels·T + values·T + T·k doubles.
+ * @param estimator, medium, set, variances, count, map as for
+ *        hetinv_estimator_fisher().
+ * @param spacing 1 to 16 (1: one class, every cell probed at once).
+ * @param replicates R, from 2 to #HETINV_FISHER_MAX_REPLICATES.
+ * @param[out] blocks cells·P·P values: cell c's block at
+ *        blocks[(c·P + a)·P + b] = F_{a·cells + c, b·cells + c}.
+ * @param[out] blocks_std_errors their standard errors (spread of the
+ *        replicates / √R); may be NULL.
+ * @param k hetinv_param_map_size(map).
+ * @return as hetinv_estimator_fisher_diagonal(); HETINV_ERROR_INVALID_ARGUMENT
+ *         for a spacing out of range.
+ */
+HETINV_API hetinv_result_t hetinv_estimator_fisher_blocks(
+    hetinv_estimator_t *estimator, const hetinv_medium_t *medium, const hetinv_measurements_t *set,
+    const double *variances, size_t count, const hetinv_param_map_t *map, int32_t spacing,
+    int32_t replicates, double *blocks, double *blocks_std_errors, size_t k);
+
+/**
+ * @brief The local Cramér–Rao bound at radius 0 from the blocks of
+ *        hetinv_estimator_fisher_blocks(): entry k's bound when only its
+ *        own cell's parameters are unknown, sqrt of the diagonal of each
+ *        block's inverse. It is a LOWER bound of the full bound
+ *        sqrt((F⁻¹)_kk), and at least sqrt(1/F_kk).
+ * @param map the parameter map.
+ * @param blocks cells·P·P values, as hetinv_estimator_fisher_blocks() writes.
+ * @param k hetinv_param_map_size(map).
+ * @param[out] sd k standard deviations in the units of π: +∞ where the
+ *        block's diagonal entry is 0 (nothing seen), NaN where the rest of
+ *        the cell's block is not positive definite (noise: more replicates
+ *        or a wider spacing).
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (k); HETINV_ERROR_OUT_OF_MEMORY.
+ */
+HETINV_API hetinv_result_t hetinv_fisher_blocks_crb(const hetinv_param_map_t *map, const double *blocks,
+                                                    size_t k, double *sd);
+
 #ifdef __cplusplus
 }
 #endif

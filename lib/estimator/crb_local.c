@@ -83,3 +83,37 @@ HETINV_API hetinv_result_t hetinv_fisher_local_crb(const hetinv_param_map_t *map
   hv_free(ctx, out);
   return r;
 }
+
+HETINV_API hetinv_result_t hetinv_fisher_blocks_crb(const hetinv_param_map_t *map, const double *blocks,
+                                                    size_t k, double *sd) {
+  HV_API_ENTER();
+  if (map == NULL) return HV_FAIL(NULL, HETINV_ERROR_NULL_ARGUMENT, "'map' is NULL");
+  const hetinv_context_t *ctx = hv_param_map_context(map);
+  if (blocks == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'blocks' is NULL");
+  if (sd == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'sd' is NULL");
+  if (k != hetinv_param_map_size(map)) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "k is %zu; the map has %zu entries", k,
+                   hetinv_param_map_size(map));
+  }
+  int32_t dims[3];
+  hetinv_param_map_get_dims(map, dims);
+  size_t cells = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+  size_t P = cells ? k / cells : 0;
+  /* P ≤ 3 (σa, σs, g): the block and its scratch fit on the stack. */
+  double A[9], scratch[7], out[4];
+  size_t idx[3];
+  for (size_t c = 0; c < cells; ++c) {
+    const double *B = blocks + c * P * P;
+    size_t m = 0;
+    for (size_t a = 0; a < P && a < 3; ++a) {
+      if (B[a * P + a] > 0.0) idx[m++] = a;
+    }
+    for (size_t i = 0; i < m; ++i) {
+      for (size_t j = 0; j < m; ++j) A[i * m + j] = B[idx[i] * P + idx[j]];
+    }
+    bool pd = m > 0 && hv_spd_inverse_diagonal(A, m, scratch, out);
+    for (size_t a = 0; a < P; ++a) sd[a * cells + c] = B[a * P + a] == 0.0 ? (double)INFINITY : (double)NAN;
+    for (size_t q = 0; pd && q < m; ++q) sd[idx[q] * cells + c] = sqrt(out[q]);
+  }
+  return HETINV_SUCCESS;
+}

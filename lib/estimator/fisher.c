@@ -14,6 +14,7 @@
 #include "core/alloc.h"
 #include "core/error.h"
 #include "core/rng.h"
+#include "estimator/fisher_internal.h"
 #include "estimator/pass.h"
 #include "estimator/spd.h"
 #include "hetinv/bound.h"
@@ -21,12 +22,11 @@
 #include "param/param_map_internal.h"
 #include "sampling/measurements_internal.h"
 
-/* Checks the arguments shared by both entry points and builds the weights
- * mask_n / variance_n (variances NULL: the set's standard errors squared). */
-static hetinv_result_t check(const hv_pass_t *pass, const hetinv_medium_t *medium,
-                             const hetinv_measurements_t *set, const double *variances,
-                             const hetinv_param_map_t *map, int32_t replicates, size_t k,
-                             bool dense, double **weights) {
+hetinv_result_t hv_fisher_check(const hv_pass_t *pass, const hetinv_medium_t *medium,
+                                const hetinv_measurements_t *set, const double *variances,
+                                const hetinv_param_map_t *map, int32_t replicates,
+                                const char *replicates_name, size_t k, bool dense,
+                                double **weights) {
   const hetinv_context_t *ctx = pass->ctx;
   hetinv_result_t r = hv_check_pi_map(ctx, map, medium, k, "k");
   if (r != HETINV_SUCCESS) return r;
@@ -37,7 +37,7 @@ static hetinv_result_t check(const hv_pass_t *pass, const hetinv_medium_t *mediu
   }
   if (replicates < 2 || replicates > HETINV_FISHER_MAX_REPLICATES) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "%s is %d; expected an integer from 2 to %d", dense ? "replicates" : "probes",
+                   "%s is %d; expected an integer from 2 to %d", replicates_name,
                    (int)replicates, HETINV_FISHER_MAX_REPLICATES);
   }
   size_t n = set->value_count;
@@ -153,7 +153,7 @@ static hetinv_result_t fisher_run(hetinv_estimator_t *est, const hetinv_medium_t
   if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = pass.ctx;
   double *w = NULL;
-  r = check(&pass, medium, set, variances, map, R, k, true, &w);
+  r = hv_fisher_check(&pass, medium, set, variances, map, R, "replicates", k, true, &w);
   if (r == HETINV_SUCCESS) {
     *reps = hv_calloc(ctx, (size_t)R * k * k, sizeof(double));
     if (*reps == NULL) {
@@ -280,9 +280,18 @@ HETINV_API hetinv_result_t hetinv_estimator_crb(
   return r;
 }
 
-/* Rademacher entry i of probe r: a SplitMix64 hash of (seed, probe, i),
- * independent of the photons (another generator altogether). */
-static double rademacher(uint64_t seed, int32_t probe, size_t i) {
+void hv_fisher_mean_se(const double *sum, const double *sq, size_t n, int32_t R, double *mean, double *se) {
+  for (size_t i = 0; i < n; ++i) {
+    double m = sum[i] / R;
+    mean[i] = m;
+    if (se) {
+      double var = (sq[i] - R * m * m) / (R - 1);
+      se[i] = sqrt(var > 0.0 ? var / R : 0.0);
+    }
+  }
+}
+
+double hv_fisher_rademacher(uint64_t seed, int32_t probe, size_t i) {
   uint64_t z = seed ^ ((uint64_t)(uint32_t)probe * 0x9e3779b97f4a7c15ULL) ^ ((uint64_t)i * 0xd1b54a32d192ed03ULL);
   z += 0x9e3779b97f4a7c15ULL;
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
@@ -302,7 +311,7 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
   const hetinv_context_t *ctx = pass.ctx;
   double *w = NULL;
   if (diagonal == NULL) r = HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'diagonal' is NULL");
-  if (r == HETINV_SUCCESS) r = check(&pass, medium, set, variances, map, probes, k, false, &w);
+  if (r == HETINV_SUCCESS) r = hv_fisher_check(&pass, medium, set, variances, map, probes, "probes", k, false, &w);
   double *z = NULL, *tangent = NULL, *jz = NULL, *g = NULL, *sum = NULL, *sq = NULL;
   if (r == HETINV_SUCCESS) {
     z = hv_calloc(ctx, k, sizeof(double));
@@ -318,7 +327,7 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
   for (int32_t probe = 0; r == HETINV_SUCCESS && probe < probes; ++probe) {
     /* d = z ⊙ Ĵ₂ᵀ W Ĵ₁ z, the two passes on independent streams:
      * E[d_k] = Σ_j F_kj E[z_k z_j] = F_kk. */
-    for (size_t i = 0; i < k; ++i) z[i] = rademacher(pass.seed, probe, i);
+    for (size_t i = 0; i < k; ++i) z[i] = hv_fisher_rademacher(pass.seed, probe, i);
     hv_param_map_pushforward(map, z, 1, tangent);
     hv_pass_t p = pass;
     p.stream = (uint32_t)((pass.stream + 2u * (uint32_t)probe) % HV_RNG_STREAM_LIMIT);
@@ -333,14 +342,7 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher_diagonal(
       sq[i] += d * d;
     }
   }
-  for (size_t i = 0; r == HETINV_SUCCESS && i < k; ++i) {
-    double mean = sum[i] / probes;
-    diagonal[i] = mean;
-    if (diagonal_std_errors) {
-      double var = (sq[i] - probes * mean * mean) / (probes - 1);
-      diagonal_std_errors[i] = sqrt(var > 0.0 ? var / probes : 0.0);
-    }
-  }
+  if (r == HETINV_SUCCESS) hv_fisher_mean_se(sum, sq, k, probes, diagonal, diagonal_std_errors);
   hv_free(ctx, w);
   hv_free(ctx, z);
   hv_free(ctx, tangent);

@@ -351,6 +351,21 @@ class Bound(unittest.TestCase):
             self.assertEqual(len(local), pmap.size)
             with self.assertRaisesRegex(ValueError, "fisher"):
                 pmap.local_crb([1.0, 2.0])
+            # The blocks (here each cell's 2 x 2) give the same local bound at
+            # radius 0 when they are the dense matrix's own blocks.
+            blocks = est.fisher_blocks(m, rows, [1e-6, 1e-6], pmap, spacing=2, replicates=2)
+            self.assertEqual(len(list(hetinv.flat(blocks.grad))), pmap.size * 2)
+            if hetinv.numpy_enabled():
+                self.assertEqual(blocks.grad.shape, tuple(pmap.shape[1:]) + (2, 2))
+            K, cells = pmap.size, pmap.size // 2
+            F = list(hetinv.flat(f.fisher))
+            own = [F[(a * cells + c) * K + b * cells + c] for c in range(cells) for a in range(2) for b in range(2)]
+            from_blocks = list(hetinv.flat(pmap.blocks_crb(own)))
+            for x, y in zip(from_blocks, local):
+                if x == x and y == y:  # NaN where a block is not positive definite
+                    self.assertAlmostEqual(x, y, delta=1e-12 * abs(y))
+            with self.assertRaisesRegex(ValueError, "blocks"):
+                pmap.blocks_crb([1.0, 2.0])
 
 
 if __name__ == "__main__":

@@ -485,6 +485,61 @@ static void fisher_diagonal_matches_the_dense_diagonal(void **state) {
   val_assert_all_passed(failures);
 }
 
+/* The matrix-free blocks (probing by classes of cells) against the dense
+ * matrix's blocks, each with its own error: at spacing 2 each of the two
+ * cells is its own class (only Monte Carlo noise), at spacing 1 both are
+ * probed at once (the other cell's entries add noise, not bias). 3
+ * distinct entries per block, 2 cells, 2 spacings: 12 comparisons. And
+ * the bound from the blocks is the local bound at radius 0 (the same
+ * arithmetic on the dense matrix's blocks: exact). */
+#define BLOCK_REPLICATES 100
+
+static void fisher_blocks_match_the_dense_blocks(void **state) {
+  (void)state;
+  tiny_t p;
+  tiny_build(&p, false, HETINV_FREE(HETINV_PARAM_SIGMA_A) | HETINV_FREE(HETINV_PARAM_G));
+  double var[TINY_VALUES];
+  tiny_variances(&p, var);
+  hetinv_estimator_t *est = estimator(p.ctx, val_photons(2000), 100, 0);
+  double F[K4 * K4], F_se[K4 * K4];
+  assert_ok(hetinv_estimator_fisher(est, p.medium, p.set, var, TINY_VALUES, p.map, 50, F, F_se, K4));
+  const size_t cells = 2, P = 2;
+  const int R = BLOCK_REPLICATES;
+  int failures = 0;
+  for (int32_t spacing = 1; spacing <= 2; ++spacing) {
+    double B[8], B_se[8];
+    assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, 300 + 10 * spacing));
+    assert_ok(hetinv_estimator_fisher_blocks(est, p.medium, p.set, var, TINY_VALUES, p.map, spacing, R, B,
+                                             B_se, K4));
+    for (size_t c = 0; c < cells; ++c) {
+      for (size_t a = 0; a < P; ++a) {
+        for (size_t b = a; b < P; ++b) {
+          size_t i = a * cells + c, j = b * cells + c, e = (c * P + a) * P + b;
+          char what[80];
+          snprintf(what, sizeof what, "fisher_blocks/spacing%d/cell%zu/F[%zu][%zu]", (int)spacing, c, i, j);
+          failures += !grad_compare(what, F[i * K4 + j], F_se[i * K4 + j], 49, B[e], B_se[e], R - 1, 12, seed);
+        }
+      }
+    }
+  }
+  double Bd[8], sd_blocks[K4], sd_local[K4];
+  for (size_t c = 0; c < cells; ++c) {
+    for (size_t a = 0; a < P; ++a) {
+      for (size_t b = 0; b < P; ++b) Bd[(c * P + a) * P + b] = F[(a * cells + c) * K4 + b * cells + c];
+    }
+  }
+  assert_ok(hetinv_fisher_blocks_crb(p.map, Bd, K4, sd_blocks));
+  assert_ok(hetinv_fisher_local_crb(p.map, F, K4, 0, sd_local));
+  for (int k = 0; k < K4; ++k) {
+    char what[64];
+    snprintf(what, sizeof what, "blocks_crb[%d]_is_local_crb_radius0", k);
+    failures += !val_check_exact("BOUND", what, sd_local[k], sd_blocks[k], 1e-12 * sd_local[k], seed);
+  }
+  hetinv_estimator_destroy(&est);
+  tiny_destroy(&p);
+  val_assert_all_passed(failures);
+}
+
 /* Bad arguments get a precise error, and nothing is written. */
 static void bad_arguments_are_rejected(void **state) {
   (void)state;
@@ -513,6 +568,17 @@ static void bad_arguments_are_rejected(void **state) {
   assert_message_contains("k is 5; the map has 4 entries");
   assert_result(HETINV_ERROR_NULL_ARGUMENT,
                 hetinv_estimator_crb(est, p.medium, p.set, var, TINY_VALUES, p.map, 2, NULL, NULL, NULL, 4, NULL));
+  double B[8];
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT,
+                hetinv_estimator_fisher_blocks(est, p.medium, p.set, var, TINY_VALUES, p.map, 0, 2, B, NULL, 4));
+  assert_message_contains("spacing is 0");
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT,
+                hetinv_estimator_fisher_blocks(est, p.medium, p.set, var, TINY_VALUES, p.map, 1, 1, B, NULL, 4));
+  assert_message_contains("replicates is 1");
+  assert_result(HETINV_ERROR_NULL_ARGUMENT,
+                hetinv_estimator_fisher_blocks(est, p.medium, p.set, var, TINY_VALUES, p.map, 1, 2, NULL, NULL, 4));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_fisher_blocks_crb(p.map, B, 3, sd));
+  assert_message_contains("k is 3; the map has 4 entries");
   /* A masked-out value needs no variance. */
   uint8_t mask[TINY_VALUES] = {1, 1, 1, 1, 1, 0, 1, 1, 1};
   assert_ok(hetinv_measurements_set_mask(p.set, mask, TINY_VALUES));
@@ -533,6 +599,7 @@ int main(void) {
       cmocka_unit_test(jvp_agrees_with_gradient_on_independent_paths),
       cmocka_unit_test(fisher_matches_the_jacobian_formed_row_by_row),
       cmocka_unit_test(fisher_diagonal_matches_the_dense_diagonal),
+      cmocka_unit_test(fisher_blocks_match_the_dense_blocks),
       cmocka_unit_test(slab_bound_grows_with_depth_and_bins_lower_it),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -135,6 +135,9 @@ PROTOTYPES = {
     "hetinv_estimator_fisher_diagonal": (_R, [_vp, _vp, _vp, c_double_p, _sz, _vp, _i32, c_double_p,
                                               c_double_p, _sz]),
     "hetinv_fisher_local_crb": (_R, [_vp, c_double_p, _sz, _i32, c_double_p]),
+    "hetinv_estimator_fisher_blocks": (_R, [_vp, _vp, _vp, c_double_p, _sz, _vp, _i32, _i32, c_double_p,
+                                            c_double_p, _sz]),
+    "hetinv_fisher_blocks_crb": (_R, [_vp, c_double_p, _sz, c_double_p]),
     # param.h
     "hetinv_param_map_create_identity": (_R, [_vp, _u32, c_void_pp]),
     "hetinv_param_map_create_coarse": (_R, [_vp, c_int32_p, _u32, c_void_pp]),

@@ -178,6 +178,27 @@ class Estimator(Handle):
                                                 integer(probes, "probes", "int32"), pd, pe, k))
         return Gradient(d, errors)
 
+    def fisher_blocks(self, medium, measurements, variances, param_map, spacing=2, replicates=4):
+        """Each cell's block of F (its own free parameters), matrix-free for
+        maps of any size: probes on classes of cells `spacing` apart
+        (bound.h). Returns Gradient-like (blocks, std_errors), each shaped
+        (cz, cy, cx, P, P) with numpy (P = len(param_map.params); the
+        library's order, cell c's block at [(c·P + a)·P + b], flat
+        without); turn them into the local bound at radius 0 with
+        ParamMap.blocks_crb()."""
+        mp, sp = _inputs(medium, measurements)
+        pm = _map(param_map)
+        var = _arrays.to_c(variances, "d", measurements.value_count, "variances")
+        k, P = param_map.size, len(param_map.params)
+        shape = param_map.shape[1:] + (P, P)
+        b, pb = _arrays.empty(k * P, "d", shape)
+        errors, pe = _arrays.empty(k * P, "d", shape)
+        with pinned(self, medium, measurements, param_map):
+            check(lib.estimator_fisher_blocks(self._ptr, mp, sp, var.ptr, var.count, pm,
+                                              integer(spacing, "spacing", "int32"),
+                                              integer(replicates, "replicates", "int32"), pb, pe, k))
+        return Gradient(b, errors)
+
     def loss_gradient(self, medium, measurements, param_map):
         """The loss of Eq. (9) against the set's measured values, its
         gradient with respect to π, and the rendered values."""

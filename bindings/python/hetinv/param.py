@@ -156,3 +156,15 @@ class ParamMap(Handle):
         out, ptr = _arrays.empty(n, "d", self.shape)
         check(lib.fisher_local_crb(self._ptr, f.ptr, n, integer(radius, "radius", "int32"), ptr))
         return out
+
+    def blocks_crb(self, blocks):
+        """The local Cramér–Rao bound at radius 0 from the blocks of
+        Estimator.fisher_blocks(): each entry's bound with only its own
+        cell's parameters unknown, a lower bound of Estimator.crb()'s.
+        Shaped self.shape with numpy; inf where nothing reaches the entry,
+        nan where the cell's block is not positive definite."""
+        n = self.size
+        b = _arrays.to_c(blocks, "d", n * len(self.params), "blocks")
+        out, ptr = _arrays.empty(n, "d", self.shape)
+        check(lib.fisher_blocks_crb(self._ptr, b.ptr, n, ptr))
+        return out
