@@ -22,8 +22,8 @@
  * bound_local_<param>.vol and prints, per parameter, the voxels over the
  * paper's 19.73 % and how many of them are not within 1.5× a bound over
  * 19.73 %: a miss within it is the data's. --bound-only computes the bound
- * alone; with --recovered DIR it sets it against DIR/recovered_*.vol (an
- * earlier run of the same scene).
+ * alone; with --recovered DIR (repeatable) it sets it against
+ * DIR/recovered_*.vol (earlier runs of the same scene).
  *
  * --lighting says what "front-, side- and back-lighting" measures. probes
  * (the default): every source is measured at its own pixel and its
@@ -110,6 +110,7 @@ static void print_usage(FILE *f) {
           "  --bound-replicates N  its independent replicates (default 2)\n"
           "  --bound-spacing S  its probes' voxel classes, S apart (default 2; cost S^3)\n"
           "  --recovered DIR  with --bound-only: set the bound against DIR/recovered_*.vol\n"
+          "                  (repeatable, up to 16)\n"
           "  --truth-seed S  another smoke volume (default 5, the figure's)\n"
           "  --quiet         no progress line\n"
           "  --write-scene   write the set-up as a render scene, the truth and a\n"
@@ -332,11 +333,58 @@ static int recover(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_
   return status;
 }
 
+#define MAX_RECOVERED 16 /* --recovered DIRs of one run */
+
+/* One recovery, rec_dir/recovered_<param>.vol, against the bound: prints
+ * per parameter the voxels over the paper's max and how many the bound
+ * does not explain. 0 or 1. */
+static int verdict_of(hetinv_context_t *ctx, const hetinv_medium_t *truth, const recon_bound_t *b,
+                      const char *rec_dir) {
+  int32_t d[3];
+  hetinv_medium_get_dims(truth, d);
+  size_t voxels = hetinv_medium_voxel_count(truth);
+  experiment_verdict_t v;
+  memset(&v, 0, sizeof v);
+  char path[1200], msg[1400];
+  int status = 0;
+  for (int p = 0; status == 0 && p < 3; ++p) {
+    const double *rel = b->local_radii > 0 ? b->local[p] : b->rel[p];
+    int32_t dr[3];
+    snprintf(path, sizeof path, "%s/recovered_%s.vol", rec_dir, hetinv_param_name((hetinv_param_t)p));
+    float *r = experiment_vol_load(ctx, path, dr, msg, sizeof msg);
+    if (r == NULL) {
+      fprintf(stderr, PROG ": %s\n", msg);
+      status = 1;
+    } else if (dr[0] != d[0] || dr[1] != d[1] || dr[2] != d[2]) {
+      fprintf(stderr, PROG ": %s: a %d x %d x %d grid; the scene's is %d x %d x %d\n", path, (int)dr[0],
+              (int)dr[1], (int)dr[2], (int)d[0], (int)d[1], (int)d[2]);
+      status = 1;
+    }
+    const double *t = hetinv_medium_grid(truth, (hetinv_param_t)p);
+    for (size_t k = 0; status == 0 && k < voxels; ++k) {
+      experiment_verdict_voxel(&v, p, t[k], r[k], rel[k], PAPER_MAX_ERROR);
+    }
+    free(r);
+  }
+  if (status != 0) return status;
+  printf("\n%s: voxels over the paper's %.2f %% (of those with a finite %s bound), and of them not\n"
+         "within %.1fx a bound over %.2f %% (a miss within it is the data's%s):\n",
+         rec_dir, 100 * PAPER_MAX_ERROR, b->local_radii > 0 ? "local" : "", VERDICT_BOUND_FACTOR,
+         100 * PAPER_MAX_ERROR,
+         b->local_radii > 0 ? "; the local bound is a lower bound, so what it explains the bound explains" : "");
+  for (int p = 0; p < 3; ++p) {
+    printf("  %-8s %zu of %zu over, %zu not explained\n", hetinv_param_name((hetinv_param_t)p), v.over[p],
+           v.voxels[p], v.unexplained[p]);
+  }
+  return 0;
+}
+
 /* The local bound at the truth (recon_bound_compute: from F's blocks past
- * the dense limit), printed and written as bound_local_<param>.vol; then,
- * if rec_dir is not NULL, set against rec_dir/recovered_<param>.vol. 0 or 1. */
+ * the dense limit), printed and written as bound_local_<param>.vol; then
+ * set against each recovery of rec_dirs (verdict_of). 0 or 1. */
 static int bound_at_truth(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_medium_t *truth,
-                          recon_imaging_t *im, int64_t photons, int32_t replicates, const char *rec_dir) {
+                          recon_imaging_t *im, int64_t photons, int32_t replicates, const char *const *rec_dirs,
+                          int rec_count) {
   recon_bound_t b;
   printf("\nbound at the truth: %lld photons per emitter, %d replicates\n", (long long)photons, (int)replicates);
   fflush(stdout);
@@ -352,7 +400,7 @@ static int bound_at_truth(hetinv_context_t *ctx, const recon_scene_t *sc, const 
   for (int p = 0; p < 3; ++p) rel[p] = b.local_radii > 0 ? b.local[p] : b.rel[p];
   float *x = malloc(voxels * sizeof *x);
   if (x == NULL) status = recon_fail(PROG, NULL, "bound maps");
-  char path[1200], msg[1400];
+  char path[1200];
   for (int p = 0; status == 0 && p < 3; ++p) {
     hetinv_vol_header_t h = {.dims = {d[0], d[1], d[2]}, .channels = 1};
     hetinv_medium_get_box(truth, h.box_min, h.box_max);
@@ -363,43 +411,15 @@ static int bound_at_truth(hetinv_context_t *ctx, const recon_scene_t *sc, const 
   }
   free(x);
   if (status == 0) printf("wrote %s/bound_local_*.vol (relative; -1 where undetermined)\n", sc->output);
-  experiment_verdict_t v;
-  memset(&v, 0, sizeof v);
-  for (int p = 0; status == 0 && rec_dir != NULL && p < 3; ++p) {
-    int32_t dr[3];
-    snprintf(path, sizeof path, "%s/recovered_%s.vol", rec_dir, hetinv_param_name((hetinv_param_t)p));
-    float *r = experiment_vol_load(ctx, path, dr, msg, sizeof msg);
-    if (r == NULL) {
-      fprintf(stderr, PROG ": %s\n", msg);
-      status = 1;
-    } else if (dr[0] != d[0] || dr[1] != d[1] || dr[2] != d[2]) {
-      fprintf(stderr, PROG ": %s: a %d x %d x %d grid; the scene's is %d x %d x %d\n", path, (int)dr[0],
-              (int)dr[1], (int)dr[2], (int)d[0], (int)d[1], (int)d[2]);
-      status = 1;
-    }
-    const double *t = hetinv_medium_grid(truth, (hetinv_param_t)p);
-    for (size_t k = 0; status == 0 && k < voxels; ++k) {
-      experiment_verdict_voxel(&v, p, t[k], r[k], rel[p][k], PAPER_MAX_ERROR);
-    }
-    free(r);
-  }
-  if (status == 0 && rec_dir != NULL) {
-    printf("\nvoxels over the paper's %.2f %% (of those with a finite %s bound), and of them not within\n"
-           "%.1fx a bound over %.2f %% (a miss within it is the data's%s):\n",
-           100 * PAPER_MAX_ERROR, b.local_radii > 0 ? "local" : "", VERDICT_BOUND_FACTOR, 100 * PAPER_MAX_ERROR,
-           b.local_radii > 0 ? "; the local bound is a lower bound, so what it explains the bound explains" : "");
-    for (int p = 0; p < 3; ++p) {
-      printf("  %-8s %zu of %zu over, %zu not explained\n", hetinv_param_name((hetinv_param_t)p), v.over[p],
-             v.voxels[p], v.unexplained[p]);
-    }
-  }
+  for (int i = 0; status == 0 && i < rec_count; ++i) status = verdict_of(ctx, truth, &b, rec_dirs[i]);
   recon_bound_release(&b);
   return status;
 }
 
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scene = false, cameras = false, bound = false, bound_only = false;
-  const char *out_dir = NULL, *rec_dir = NULL;
+  const char *out_dir = NULL, *rec_dirs[MAX_RECOVERED];
+  int rec_count = 0;
   int64_t bound_photons = -1, bound_replicates = 2, bound_spacing = 2;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
   double min_snr = -1.0, loss_clip = -1.0, smoothness = -1.0, multiscale = -1.0;
@@ -419,7 +439,8 @@ int main(int argc, char **argv) {
       bound_only = true;
     } else if (strcmp(a, "--recovered") == 0) {
       if (v == NULL) return usage("--recovered needs a directory");
-      rec_dir = argv[++i];
+      if (rec_count == MAX_RECOVERED) return usage("--recovered: at most 16 directories");
+      rec_dirs[rec_count++] = argv[++i];
     } else if (strcmp(a, "--bound-photons") == 0) {
       ++i;
       if (recon_parse_count(PROG, a, v, 1, INT64_C(1) << 40, &bound_photons) < 0) return 2;
@@ -480,7 +501,7 @@ int main(int argc, char **argv) {
     }
   }
   if (bound && bound_only) return usage("--bound and --bound-only exclude each other");
-  if (rec_dir && !bound_only) return usage("--recovered goes with --bound-only");
+  if (rec_count > 0 && !bound_only) return usage("--recovered goes with --bound-only");
   if (write_scene && (bound || bound_only)) return usage("--write-scene computes no bound");
   recon_scene_t sc;
   fig5_scene(&sc, grid > 0 ? (int32_t)grid : full ? FULL_GRID : REDUCED_GRID, full, cameras);
@@ -545,7 +566,8 @@ int main(int argc, char **argv) {
   if (status == 0 && !write_scene && !bound_only) status = recover(ctx, &sc, truth, &im, quiet, t0);
   if (status == 0 && (bound || bound_only)) {
     status = bound_at_truth(ctx, &sc, truth, &im, bound_photons > 0 ? bound_photons : sc.photons,
-                            (int32_t)bound_replicates, bound ? sc.output : rec_dir);
+                            (int32_t)bound_replicates, bound ? (const char *const[]){sc.output} : rec_dirs,
+                            bound ? 1 : rec_count);
   }
   hetinv_medium_destroy(&truth);
   recon_imaging_release(&im);
