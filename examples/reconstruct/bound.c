@@ -439,14 +439,18 @@ void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
   e->has_bound = b->done;
   size_t voxels = hetinv_medium_voxel_count(truth);
   for (int p = 0; p < 3; ++p) {
-    e->bound_mean[p] = b->done ? b->mean[p] : (double)NAN;
-    e->achieved_over_bound[p] = b->done ? e->mean[p] / b->mean[p] : (double)NAN;
+    /* Past the dense limit only the local bound exists (a lower bound of
+     * the bound): the ratios are to it. */
+    const double *rel = b->spacing > 0 ? b->local[p] : b->rel[p];
+    double mean = b->spacing > 0 ? b->local_mean[0][p] : b->mean[p];
+    e->bound_mean[p] = b->done ? mean : (double)NAN;
+    e->achieved_over_bound[p] = b->done ? e->mean[p] / mean : (double)NAN;
     e->max_over_bound[p] = b->done ? 0.0 : (double)NAN;
     e->over_2x_bound[p] = e->bounded[p] = 0;
     const double *t = hetinv_medium_grid(truth, p), *x = hetinv_medium_grid(rec, p);
     for (size_t v = 0; b->done && v < voxels; ++v) {
-      if (!isfinite(b->rel[p][v]) || !(b->rel[p][v] > 0.0)) continue;
-      double ratio = fabs(x[v] - t[v]) / fabs(t[v]) / b->rel[p][v];
+      if (!isfinite(rel[v]) || !(rel[v] > 0.0)) continue;
+      double ratio = fabs(x[v] - t[v]) / fabs(t[v]) / rel[v];
       e->max_over_bound[p] = fmax(e->max_over_bound[p], ratio);
       e->over_2x_bound[p] += ratio > 2.0;
       ++e->bounded[p];
@@ -465,15 +469,6 @@ int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t
   memset(b, 0, sizeof *b);
   if (hetinv_context_rank_count(ctx) > 1) {
     if (root) printf("%s: the bound is not computed with several MPI ranks\n", prog);
-    return 0;
-  }
-  /* Larger maps go on without a bound: the bound is a report beside the
-   * recovery, not a condition of it. */
-  if (recon_bound_entries(truth) > HETINV_FISHER_MAX_ENTRIES) {
-    if (root) {
-      printf("%s: no bound: %zu entries (3 per voxel); the dense Fisher matrix takes at most %d "
-             "(HETINV_FISHER_MAX_ENTRIES)\n", prog, recon_bound_entries(truth), HETINV_FISHER_MAX_ENTRIES);
-    }
     return 0;
   }
   if (recon_bound_compute(ctx, sc, truth, im, photons, replicates, b) != HETINV_SUCCESS) {

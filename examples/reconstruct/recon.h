@@ -352,14 +352,15 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
                                   const hetinv_medium_t *truth, const recon_bound_t *b);
 /* Entries of the bound's map (σa, σs and g of every voxel). */
 size_t recon_bound_entries(const hetinv_medium_t *medium);
-/* Computes, prints (root) and writes (root) the bound; with several MPI
- * ranks, or more than HETINV_FISHER_MAX_ENTRIES entries, it is skipped
- * with a note (b->done false). 0, or 1 after a message. */
+/* Computes, prints (root) and writes (root) the bound (past
+ * HETINV_FISHER_MAX_ENTRIES entries the local one at radius 0); with
+ * several MPI ranks it is skipped with a note (b->done false). 0, or 1
+ * after a message. */
 int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *scene,
                     const hetinv_medium_t *at, recon_imaging_t *im, int64_t photons,
                     int32_t replicates, bool root, bool at_recovery, recon_bound_t *b);
 /* Fills e's bound columns from b and the recovery (no-op if b was not
- * computed). */
+ * computed); with only the local bound (b->spacing > 0), from it. */
 void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
                         const hetinv_medium_t *recovered, recon_errors_t *e);
 
