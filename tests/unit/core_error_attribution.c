@@ -358,8 +358,11 @@ static void test_estimator(fixture_t *f) {
                                      NULL, NULL, 3, &positive_definite));
   EXPECT_FAIL(hetinv_estimator_fisher_diagonal,
               (f->estimator, f->medium, f->set, variances, n, f->map, 2, out, NULL, 3));
+  EXPECT_FAIL(hetinv_estimator_fisher_blocks,
+              (f->estimator, f->medium, f->set, variances, n, f->map, 1, 2, out, NULL, 3));
   /* k is not the map's size */
   EXPECT_FAIL(hetinv_fisher_local_crb, (f->map, variances, 3, 0, out));
+  EXPECT_FAIL(hetinv_fisher_blocks_crb, (f->map, variances, 3, out));
 }
 
 static void test_io(fixture_t *f) {
