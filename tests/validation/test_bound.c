@@ -452,6 +452,18 @@ static void slab_bound_grows_with_depth_and_bins_lower_it(void **state) {
   val_assert_all_passed(failures);
 }
 
+/* The tiny problem with σa and g free, its variances, an estimator (stream
+ * 100) and the dense F̂ of 50 replicates with its errors: the reference of
+ * the matrix-free estimates below. */
+static hetinv_estimator_t *tiny_dense_fisher(tiny_t *p, double var[TINY_VALUES], double F[K4 * K4],
+                                             double F_se[K4 * K4]) {
+  tiny_build(p, false, HETINV_FREE(HETINV_PARAM_SIGMA_A) | HETINV_FREE(HETINV_PARAM_G));
+  tiny_variances(p, var);
+  hetinv_estimator_t *est = estimator(p->ctx, val_photons(2000), 100, 0);
+  assert_ok(hetinv_estimator_fisher(est, p->medium, p->set, var, TINY_VALUES, p->map, 50, F, F_se, K4));
+  return est;
+}
+
 /* The matrix-free diagonal (Hutchinson) against the dense matrix's
  * diagonal, each with its own error; 4 comparisons. And sqrt(1/F_kk) is a
  * lower bound of the CRB: below sqrt((F⁻¹)_kk) from the dense matrix. */
@@ -460,12 +472,8 @@ static void slab_bound_grows_with_depth_and_bins_lower_it(void **state) {
 static void fisher_diagonal_matches_the_dense_diagonal(void **state) {
   (void)state;
   tiny_t p;
-  tiny_build(&p, false, HETINV_FREE(HETINV_PARAM_SIGMA_A) | HETINV_FREE(HETINV_PARAM_G));
-  double var[TINY_VALUES];
-  tiny_variances(&p, var);
-  hetinv_estimator_t *est = estimator(p.ctx, val_photons(2000), 100, 0);
-  double F[K4 * K4], F_se[K4 * K4], d[K4], d_se[K4], sd[K4], lower[K4];
-  assert_ok(hetinv_estimator_fisher(est, p.medium, p.set, var, TINY_VALUES, p.map, 50, F, F_se, K4));
+  double var[TINY_VALUES], F[K4 * K4], F_se[K4 * K4], d[K4], d_se[K4], sd[K4], lower[K4];
+  hetinv_estimator_t *est = tiny_dense_fisher(&p, var, F, F_se);
   int32_t pd = 0;
   assert_ok(hetinv_estimator_crb(est, p.medium, p.set, var, TINY_VALUES, p.map, 50, sd, NULL, lower, K4, &pd));
   assert_int_equal(pd, 1);
@@ -497,12 +505,8 @@ static void fisher_diagonal_matches_the_dense_diagonal(void **state) {
 static void fisher_blocks_match_the_dense_blocks(void **state) {
   (void)state;
   tiny_t p;
-  tiny_build(&p, false, HETINV_FREE(HETINV_PARAM_SIGMA_A) | HETINV_FREE(HETINV_PARAM_G));
-  double var[TINY_VALUES];
-  tiny_variances(&p, var);
-  hetinv_estimator_t *est = estimator(p.ctx, val_photons(2000), 100, 0);
-  double F[K4 * K4], F_se[K4 * K4];
-  assert_ok(hetinv_estimator_fisher(est, p.medium, p.set, var, TINY_VALUES, p.map, 50, F, F_se, K4));
+  double var[TINY_VALUES], F[K4 * K4], F_se[K4 * K4];
+  hetinv_estimator_t *est = tiny_dense_fisher(&p, var, F, F_se);
   const size_t cells = 2, P = 2;
   const int R = BLOCK_REPLICATES;
   int failures = 0;
