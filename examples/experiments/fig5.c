@@ -391,6 +391,26 @@ static int verdict_of(hetinv_context_t *ctx, const hetinv_medium_t *truth, const
   return 0;
 }
 
+/* Before the bound's minutes: every rec_dirs/recovered_<param>.vol is a
+ * 1-channel volume of the scene's grid. 0, or 1 after a message. */
+static int check_recovered(hetinv_context_t *ctx, const int32_t grid[3], const char *const *rec_dirs,
+                           int rec_count) {
+  char path[1200];
+  for (int i = 0; i < rec_count; ++i) {
+    for (int p = 0; p < 3; ++p) {
+      snprintf(path, sizeof path, "%s/recovered_%s.vol", rec_dirs[i], hetinv_param_name((hetinv_param_t)p));
+      hetinv_vol_header_t h;
+      if (hetinv_vol_read_header(ctx, path, &h) != HETINV_SUCCESS) return recon_fail(PROG, ctx, path);
+      if (h.dims[0] != grid[0] || h.dims[1] != grid[1] || h.dims[2] != grid[2] || h.channels != 1) {
+        fprintf(stderr, PROG ": %s: a %d x %d x %d grid; the scene's is %d x %d x %d\n", path, (int)h.dims[0],
+                (int)h.dims[1], (int)h.dims[2], (int)grid[0], (int)grid[1], (int)grid[2]);
+        return 1;
+      }
+    }
+  }
+  return 0;
+}
+
 /* The local bound at the truth (recon_bound_compute: from F's blocks past
  * the dense limit), printed and written as bound_local_<param>.vol; then
  * set against each recovery of rec_dirs (verdict_of). 0 or 1. */
@@ -575,6 +595,7 @@ int main(int argc, char **argv) {
       printf("wrote %s/{render.json, reconstruct.json, truth_*.vol}\n", sc.output);
     }
   }
+  if (status == 0 && rec_count > 0) status = check_recovered(ctx, sc.grid, rec_dirs, rec_count);
   if (status == 0 && !write_scene && !bound_only) status = recover(ctx, &sc, truth, &im, quiet, t0);
   if (status == 0 && (bound || bound_only)) {
     status = bound_at_truth(ctx, &sc, truth, &im, bound_photons > 0 ? bound_photons : sc.photons,
