@@ -459,10 +459,6 @@ void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
   }
 }
 
-size_t recon_bound_entries(const hetinv_medium_t *m) {
-  return 3 * hetinv_medium_voxel_count(m);
-}
-
 int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *sc,
                     const hetinv_medium_t *truth, recon_imaging_t *im, int64_t photons,
                     int32_t replicates, bool root, bool at_recovery, recon_bound_t *b) {

@@ -350,8 +350,6 @@ void recon_bound_print(const recon_bound_t *b, FILE *f);
  * <output>/bound_<param>.png. */
 hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *scene,
                                   const hetinv_medium_t *truth, const recon_bound_t *b);
-/* Entries of the bound's map (σa, σs and g of every voxel). */
-size_t recon_bound_entries(const hetinv_medium_t *medium);
 /* Computes, prints (root) and writes (root) the bound (past
  * HETINV_FISHER_MAX_ENTRIES entries the local one at radius 0); with
  * several MPI ranks it is skipped with a note (b->done false). 0, or 1
