@@ -51,6 +51,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->independent_errors) {
     key_append(key, key_size, " independent_errors=1");
   }
+  if (sc->pooled_errors) {
+    key_append(key, key_size, " pooled_errors=1");
+  }
   if (sc->smoothness != 0.0) {
     key_append(key, key_size, " smoothness=%.17g", sc->smoothness);
   }
@@ -135,6 +138,9 @@ static void data_key(const recon_scene_t *sc, char *key, size_t key_size) {
            sc->weighting, sc->min_snr);
   if (sc->independent_errors) {
     key_append(key, key_size, " independent_errors=1");
+  }
+  if (sc->pooled_errors) {
+    key_append(key, key_size, " pooled_errors=1");
   }
 }
 

@@ -8,8 +8,9 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
- *               [--coarse-window N] [--loss-clip C] [--independent-errors] [--smoothness L]
- *               [--multiscale A] [--truth-photons N]
+ *               [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]
+ *               [--residual-weights]
+ *               [--smoothness L] [--multiscale A] [--truth-photons N]
  *               [--coordinates native|reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -77,7 +78,14 @@
  * Monte Carlo error is part of the data's noise;
  * --independent-errors takes the data's Monte Carlo standard errors (and
  * so their weights) from a second render of the truth
- * (acquisition.independent_errors);
+ * (acquisition.independent_errors); --pooled-errors takes each value's
+ * Monte Carlo variance as its value times the variance-to-value ratio of
+ * its neighbours in the image (acquisition.pooled_errors), for the
+ * weights, the mask and the bound alike; --residual-weights weights each
+ * value by 1/variance of the loss's residual, the data's noise plus the
+ * optimizer's render's Monte Carlo variance at --photons
+ * (acquisition.weighting "residual"), so that Huber's clip counts in
+ * standard errors of the residual, not of the data alone;
  * --decay D its running means'
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
  * as (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of
@@ -121,8 +129,9 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--smoothness L]\n"
-          "                   [--multiscale A] [--truth-photons N]\n"
+          "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]\n"
+          "                   [--residual-weights]\n"
+          "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"
           "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -511,6 +520,7 @@ static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photon
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
   bool bound = false, bound_only = false, init_truth = false, fit = false, independent_errors = false;
+  bool pooled_errors = false, residual_weights = false;
   int64_t first_volume = 0, volumes = -1, iterations = -1, photons = -1, minibatch = -1, grid = -1, threads = -1;
   int64_t truth_photons = -1;
   int64_t bound_photons = -1, bound_replicates = 4, fit_photons = 20000, fit_replicates = 4;
@@ -599,6 +609,10 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--independent-errors") == 0) {
       independent_errors = true;
+    } else if (strcmp(a, "--pooled-errors") == 0) {
+      pooled_errors = true;
+    } else if (strcmp(a, "--residual-weights") == 0) {
+      residual_weights = true;
     } else if (strcmp(a, "--loss-clip") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &loss_clip) < 0) return 2;
       ++i;
@@ -681,6 +695,8 @@ int main(int argc, char **argv) {
       if (multiscale >= 0.0) sc.multiscale = multiscale;
       if (truth_photons > 0) sc.truth_photons = truth_photons;
       if (independent_errors) sc.independent_errors = true;
+      if (pooled_errors) sc.pooled_errors = true;
+      if (residual_weights) sc.weighting = RECON_WEIGHT_RESIDUAL;
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);

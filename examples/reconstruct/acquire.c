@@ -8,13 +8,19 @@
 
 #include "recon.h"
 
-void recon_set_weights(int weighting, const double *v, const double *se, double *w, size_t n) {
+void recon_set_weights(int weighting, const double *v, const double *se, const double *render_var, double *w,
+                       size_t n) {
   double peak = 0.0;
   for (size_t i = 0; i < n; ++i) peak = fmax(peak, fabs(v[i]));
   for (size_t i = 0; i < n; ++i) {
     double s;
     switch (weighting) {
       case RECON_WEIGHT_VARIANCE: s = se[i] > 0.0 ? se[i] : 1e-6 * peak; break;
+      case RECON_WEIGHT_RESIDUAL: {
+        double s2 = se[i] * se[i] + (render_var ? render_var[i] : 0.0);
+        s = s2 > 0.0 ? sqrt(s2) : 1e-6 * peak;
+        break;
+      }
       case RECON_WEIGHT_RELATIVE: s = fmax(fabs(v[i]), 1e-3 * peak); break;
       default: s = 1.0; break;
     }
@@ -27,6 +33,32 @@ void recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, siz
   for (size_t i = 0; i < n; ++i) {
     if (v[i] < min_snr * se[i]) mask[i] = 0;
   }
+}
+
+hetinv_result_t recon_pool_errors(const double *clean, double *mc, int32_t pixels, int32_t bins) {
+  const int32_t R = RECON_POOL_RADIUS;
+  double *sum_var = calloc(2 * ((size_t)pixels + 1), sizeof *sum_var), *sum_value = sum_var + pixels + 1;
+  if (sum_var == NULL) return HETINV_ERROR_OUT_OF_MEMORY;
+  for (int32_t b = 0; b < bins; ++b) {
+    const double *x = clean + (size_t)b * (size_t)pixels;
+    double *s = mc + (size_t)b * (size_t)pixels;
+    /* Prefix sums over the bin's image in pixel order; a value that came
+     * out zero or negative still counts its variance, not its value. */
+    sum_var[0] = sum_value[0] = 0.0;
+    for (int32_t p = 0; p < pixels; ++p) {
+      sum_var[p + 1] = sum_var[p] + s[p] * s[p];
+      sum_value[p + 1] = sum_value[p] + fmax(x[p], 0.0);
+    }
+    for (int32_t p = 0; p < pixels; ++p) {
+      int32_t lo = p > R ? p - R : 0, hi = p + R + 1 < pixels ? p + R + 1 : pixels;
+      double value = sum_value[hi] - sum_value[lo];
+      double ratio = value > 0.0 ? (sum_var[hi] - sum_var[lo]) / value : 0.0;
+      /* Unlit neighbourhoods keep their own (zero) error. */
+      s[p] = value > 0.0 ? sqrt(ratio * fmax(x[p], 0.0)) : s[p];
+    }
+  }
+  free(sum_var);
+  return HETINV_SUCCESS;
 }
 
 hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
@@ -54,6 +86,7 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
     size_t len = (size_t)pixels * (size_t)bins;
     double exposure = 0.0;
     for (size_t i = 0; i < len; ++i) mask[off + i] = 1;
+    if (sc->pooled_errors && (r = recon_pool_errors(clean + off, mc + off, pixels, bins)) != HETINV_SUCCESS) break;
     if (!sc->noise) {
       memcpy(v + off, clean + off, len * sizeof *v);
       memcpy(se + off, mc + off, len * sizeof *se);
@@ -87,7 +120,13 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
   }
   if (r == HETINV_SUCCESS) {
     recon_mask_unresolved(v, se, mask, n, sc->min_snr);
-    recon_set_weights(sc->weighting, v, se, w, n);
+    /* The residual weighting's render variance: the optimizer renders
+     * sc->photons per source where the data had truth_photons, so its
+     * Monte Carlo variance is the data's scaled by their ratio. mc is no
+     * longer needed as such and holds it. */
+    double scale = (double)sc->truth_photons / (double)sc->photons;
+    for (size_t i = 0; i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
+    recon_set_weights(sc->weighting, v, se, mc, w, n);
     r = hetinv_measurements_set_values(im->set, v, se, n);
   }
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, w, n);

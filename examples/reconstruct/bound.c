@@ -52,6 +52,8 @@ static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *
       }
       continue;
     }
+    /* The data's errors, pooled as recon_simulate pools them. */
+    if (sc->pooled_errors && (r = recon_pool_errors(clean + off, mc + off, pixels, bins)) != HETINV_SUCCESS) break;
     hetinv_noise_model_t model = sc->noise_model;
     model.first_index = off;
     double exposure = 0.0;

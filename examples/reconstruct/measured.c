@@ -119,7 +119,7 @@ static int read_values(hetinv_context_t *ctx, recon_scene_t *sc, const scene_t *
   if (status == 0) {
     memset(mask, 1, n);
     recon_mask_unresolved(v, se, mask, n, sc->min_snr);
-    recon_set_weights(sc->weighting, v, se, w, n);
+    recon_set_weights(sc->weighting, v, se, NULL, w, n);
     r = hetinv_measurements_set_values(scene->set, v, se, n);
     if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(scene->set, w, n);
     if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(scene->set, mask, n);

@@ -27,7 +27,9 @@ typedef enum recon_config {
 } recon_config_t;
 
 enum { RECON_TRUTH_MIXTURE, RECON_TRUTH_SMOKE, RECON_TRUTH_VOL };
-enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM };
+/* RESIDUAL: 1/variance of the loss's residual, the data's noise plus the
+ * optimizer's render's Monte Carlo variance (simulated data only). */
+enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM, RECON_WEIGHT_RESIDUAL };
 
 /* Photons of the simulated data come from their own stream, so the
  * optimizer never reuses the paths that made its data. */
@@ -87,6 +89,16 @@ typedef struct recon_scene {
    * value and a small error, so the largest weights go to the values that
    * came out low. */
   bool independent_errors;
+  /* The Monte Carlo part of each simulated value's variance pooled over
+   * its neighbours (recon_pool_errors): the value times the variance-to-
+   * value ratio of the 2·RECON_POOL_RADIUS + 1 values around it in its
+   * bin's image, instead of the value's own batch estimate. A Monte Carlo
+   * value's variance is its value times its paths' mean weight over the
+   * photons (compound Poisson); that ratio changes slowly across an image,
+   * while a dim value's own estimate, from its few paths, is heavy-tailed
+   * and low exactly where the value came out low. The bound's variances
+   * (recon_bound) are pooled the same way. */
+  bool pooled_errors;
   char measurements[1024];      /* load these (EXR) instead of simulating; "" = simulate */
   /* Acquisition from files (measured.c): a render scene (its emitters,
    * sensors, pathlengths and rows; its medium for the grid, box and η
@@ -245,7 +257,17 @@ int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *scene, const 
 
 /* Loss weights 1/s² from values and standard errors: s = the standard
  * error (variance), max(|value|, 10⁻³·peak) (relative) or 1 (uniform). */
-void recon_set_weights(int weighting, const double *v, const double *se, double *w, size_t n);
+/* The pooling of recon_scene_t.pooled_errors for one row of values laid
+ * out bin-major (pixels × bins): mc, the standard errors of the Monte
+ * Carlo values clean, replaced in place. HETINV_ERROR_OUT_OF_MEMORY
+ * leaves mc as it was. */
+#define RECON_POOL_RADIUS 4
+hetinv_result_t recon_pool_errors(const double *clean, double *mc, int32_t pixels, int32_t bins);
+/* Loss weights from the values v and their standard errors se (1/se² for
+ * the variance weighting); render_var, the variance of the optimizer's
+ * render of each value, for the residual weighting (NULL: 0). */
+void recon_set_weights(int weighting, const double *v, const double *se, const double *render_var, double *w,
+                       size_t n);
 
 /* Clears mask[i] where v[i] < min_snr·se[i] (nothing if min_snr is 0). */
 void recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, size_t n, double min_snr);

@@ -12,7 +12,7 @@
 static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
 
 /* The JSON names of the enums, in their order (preset.c writes them). */
-const char *const recon_weighting_names[] = {"variance", "relative", "uniform", NULL};
+const char *const recon_weighting_names[] = {"variance", "relative", "uniform", "residual", NULL};
 const char *const recon_method_names[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
 const char *const recon_coordinate_names[] = {"native", "reduced", NULL};
 
@@ -272,6 +272,10 @@ static int read_files(jr_t *jr, const cJSON *o, recon_scene_t *sc) {
   /* From files the default needs no standard-error files. */
   sc->weighting = RECON_WEIGHT_RELATIVE;
   if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, recon_weighting_names, &sc->weighting) < 0) return -1;
+  if (sc->weighting == RECON_WEIGHT_RESIDUAL) {
+    return jr_fail(jr, "acquisition.weighting", "\"residual\" needs simulated data (the render's variance at "
+                                                "the data's photons); from files use \"variance\"");
+  }
   /* Variances come from the standard-error files hetinv-render writes beside the values. */
   if (sc->weighting == RECON_WEIGHT_VARIANCE && sc->std_errors[0] == '\0') {
     snprintf(sc->std_errors, sizeof sc->std_errors, "%s", sc->measured);
@@ -292,7 +296,8 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (got <= 0) return got;
   static const char *const allowed[] = {"noise", "full_well", "read_noise", "seed", "weighting",
                                         "photons", "measurements", "render_scene", "measured",
-                                        "std_errors", "gain", "saturation", "min_snr", "independent_errors", NULL};
+                                        "std_errors", "gain", "saturation", "min_snr", "independent_errors",
+                                        "pooled_errors", NULL};
   if (jr_check_object(jr, o, "acquisition", allowed) < 0) return -1;
   if (jr_number(jr, o, "acquisition", "min_snr", JR_OPTIONAL, &sc->min_snr) < 0) return -1;
   if (!(sc->min_snr >= 0.0 && sc->min_snr <= 1e6)) {
@@ -305,6 +310,13 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   sc->independent_errors = independent && cJSON_IsTrue(independent);
   if (sc->independent_errors && (jr_get(o, "render_scene") != NULL || jr_get(o, "measurements") != NULL)) {
     return jr_fail(jr, "acquisition.independent_errors",
+                   "applies to simulated data only, not with \"render_scene\" or \"measurements\"");
+  }
+  const cJSON *pooled = jr_get(o, "pooled_errors");
+  if (pooled && !cJSON_IsBool(pooled)) return jr_fail(jr, "acquisition.pooled_errors", "expected true or false");
+  sc->pooled_errors = pooled && cJSON_IsTrue(pooled);
+  if (sc->pooled_errors && (jr_get(o, "render_scene") != NULL || jr_get(o, "measurements") != NULL)) {
+    return jr_fail(jr, "acquisition.pooled_errors",
                    "applies to simulated data only, not with \"render_scene\" or \"measurements\"");
   }
   if (jr_get(o, "render_scene") != NULL) return read_files(jr, o, sc);
