@@ -125,8 +125,9 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
      * Monte Carlo variance is the data's scaled by their ratio. mc is no
      * longer needed as such and holds it. */
     double scale = (double)sc->truth_photons / (double)sc->photons;
-    for (size_t i = 0; i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
-    recon_set_weights(sc->weighting, v, se, mc, w, n);
+    bool residual = sc->weighting == RECON_WEIGHT_RESIDUAL;
+    for (size_t i = 0; residual && i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
+    recon_set_weights(sc->weighting, v, se, residual ? mc : NULL, w, n);
     r = hetinv_measurements_set_values(im->set, v, se, n);
   }
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, w, n);

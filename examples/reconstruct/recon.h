@@ -255,17 +255,16 @@ int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *
 int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *scene, const hetinv_medium_t *truth, const recon_imaging_t *im,
                        const char *dir, char *msg, size_t msg_size);
 
-/* Loss weights 1/s² from values and standard errors: s = the standard
- * error (variance), max(|value|, 10⁻³·peak) (relative) or 1 (uniform). */
 /* The pooling of recon_scene_t.pooled_errors for one row of values laid
  * out bin-major (pixels × bins): mc, the standard errors of the Monte
  * Carlo values clean, replaced in place. HETINV_ERROR_OUT_OF_MEMORY
  * leaves mc as it was. */
 #define RECON_POOL_RADIUS 4
 hetinv_result_t recon_pool_errors(const double *clean, double *mc, int32_t pixels, int32_t bins);
-/* Loss weights from the values v and their standard errors se (1/se² for
- * the variance weighting); render_var, the variance of the optimizer's
- * render of each value, for the residual weighting (NULL: 0). */
+/* Loss weights 1/s² from values and standard errors: s = the standard
+ * error (variance), sqrt(se² + render_var) (residual; render_var the
+ * variance of the optimizer's render of each value, NULL: 0),
+ * max(|value|, 10⁻³·peak) (relative) or 1 (uniform). */
 void recon_set_weights(int weighting, const double *v, const double *se, const double *render_var, double *w,
                        size_t n);
 

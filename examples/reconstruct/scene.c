@@ -290,6 +290,19 @@ static int read_files(jr_t *jr, const cJSON *o, recon_scene_t *sc) {
   return 0;
 }
 
+/* An optional true/false of acquisition that only simulated data take. */
+static int read_simulation_flag(jr_t *jr, const cJSON *o, const char *key, bool *out) {
+  char at[JR_PATH_MAX];
+  jr_key(at, "acquisition", key);
+  const cJSON *flag = jr_get(o, key);
+  if (flag && !cJSON_IsBool(flag)) return jr_fail(jr, at, "expected true or false");
+  *out = flag && cJSON_IsTrue(flag);
+  if (*out && (jr_get(o, "render_scene") != NULL || jr_get(o, "measurements") != NULL)) {
+    return jr_fail(jr, at, "applies to simulated data only, not with \"render_scene\" or \"measurements\"");
+  }
+  return 0;
+}
+
 static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   const cJSON *o = NULL;
   int got = jr_object(jr, root, "", "acquisition", JR_OPTIONAL, &o);
@@ -303,21 +316,9 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (!(sc->min_snr >= 0.0 && sc->min_snr <= 1e6)) {
     return jr_fail(jr, "acquisition.min_snr", "is %g; expected a number from 0 to 1e6", sc->min_snr);
   }
-  const cJSON *independent = jr_get(o, "independent_errors");
-  if (independent && !cJSON_IsBool(independent)) {
-    return jr_fail(jr, "acquisition.independent_errors", "expected true or false");
-  }
-  sc->independent_errors = independent && cJSON_IsTrue(independent);
-  if (sc->independent_errors && (jr_get(o, "render_scene") != NULL || jr_get(o, "measurements") != NULL)) {
-    return jr_fail(jr, "acquisition.independent_errors",
-                   "applies to simulated data only, not with \"render_scene\" or \"measurements\"");
-  }
-  const cJSON *pooled = jr_get(o, "pooled_errors");
-  if (pooled && !cJSON_IsBool(pooled)) return jr_fail(jr, "acquisition.pooled_errors", "expected true or false");
-  sc->pooled_errors = pooled && cJSON_IsTrue(pooled);
-  if (sc->pooled_errors && (jr_get(o, "render_scene") != NULL || jr_get(o, "measurements") != NULL)) {
-    return jr_fail(jr, "acquisition.pooled_errors",
-                   "applies to simulated data only, not with \"render_scene\" or \"measurements\"");
+  if (read_simulation_flag(jr, o, "independent_errors", &sc->independent_errors) < 0 ||
+      read_simulation_flag(jr, o, "pooled_errors", &sc->pooled_errors) < 0) {
+    return -1;
   }
   if (jr_get(o, "render_scene") != NULL) return read_files(jr, o, sc);
   static const char *const files_only[] = {"measured", "std_errors", "gain", "saturation", NULL};
