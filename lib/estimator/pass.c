@@ -12,6 +12,7 @@
 #include "estimator/batches.h"
 #include "medium/medium_internal.h"
 #include "sampling/measurements_internal.h"
+#include "transport/sensor_kind.h"
 
 /* Epoch 0 keeps the context's seed; others map (seed, epoch) to a new key
  * through SplitMix64's finaliser. */
@@ -29,6 +30,19 @@ double hv_now_seconds(void) {
 #else
   return 0.0;
 #endif
+}
+
+/* The axis-parallel walks the plans' sensors make (sensor_kind.h). */
+static uint32_t axis_walks(const hv_plans_t *plans) {
+  uint32_t faces = 0;
+  for (int32_t i = 0; i < plans->count; ++i) {
+    const hv_plan_t *p = &plans->plan[i];
+    for (int32_t j = 0; j < p->target_count; ++j) {
+      const hv_sensor_target_t *t = &p->targets[j];
+      if (t->kind->axis_walks) faces |= t->kind->axis_walks(t->sensor);
+    }
+  }
+  return faces;
 }
 
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
@@ -62,6 +76,12 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
   if (r != HETINV_SUCCESS) return r;
   r = hv_plans_build(set, &pass->plans);
   if (r != HETINV_SUCCESS) {
+    hv_grid_release(&pass->grid);
+    return r;
+  }
+  r = hv_grid_build_axis_depths(&pass->grid, axis_walks(&pass->plans));
+  if (r != HETINV_SUCCESS) {
+    hv_plans_release(&pass->plans);
     hv_grid_release(&pass->grid);
     return r;
   }

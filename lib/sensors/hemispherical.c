@@ -18,7 +18,7 @@ static void at_exit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_senso
   if (out->scatterings == 0 && tally->ballistic) hv_score(plan, t, tally, tally->ballistic, log, 0, out->tau, out->w);
 }
 
-static const hv_sensor_kind_t HEMISPHERICAL = {"hemispherical", NULL, NULL, at_exit};
+static const hv_sensor_kind_t HEMISPHERICAL = {.name = "hemispherical", .at_exit = at_exit};
 
 HETINV_API hetinv_result_t hetinv_sensor_create_hemispherical(const hetinv_medium_t *medium,
                                                               hetinv_face_t face,

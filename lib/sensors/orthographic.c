@@ -86,14 +86,18 @@ static void at_vertex(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sen
       w0[a] = flip ? -o->dir_in[a] : o->dir_in[a];
     }
     if (redundant) continue;
+    /* Survives with probability least / ROULETTE; drawn before the phase
+     * function, whose division and square root most such patterns then
+     * never pay. */
+    double gain = 1.0;
+    if (least < ROULETTE) {
+      if (hv_rng_uniform(rng) * ROULETTE >= least) continue;
+      gain = ROULETTE / least;
+    }
     double cos_theta = d_in[0] * w0[0] + d_in[1] * w0[1] + d_in[2] * w0[2];
     double start = w * hv_phase_eval(phase, cos_theta);
     if (!(start > 0.0)) continue;
-    double throughput = start;
-    if (least < ROULETTE) { /* survives with probability least / ROULETTE */
-      if (hv_rng_uniform(rng) * ROULETTE >= least) continue;
-      throughput = start * (ROULETTE / least);
-    }
+    double throughput = start * gain;
     if (chain) hv_path_log_reset(chain);
     if (gt && gt->jvp.tangents > 0) {
       hv_jvp_chain_begin(&gt->jvp, hv_vertex_voxel(grid, vertex), hv_phase_dlog_dg(phase, cos_theta));
@@ -157,7 +161,22 @@ static void at_exit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_senso
   if (pixel >= 0) hv_score(plan, t, tally, tally->ballistic, log, pixel, out->tau, out->w * o->ballistic_scale);
 }
 
-static const hv_sensor_kind_t ORTHOGRAPHIC = {"orthographic", prepare, at_vertex, at_exit};
+/* A camera looking along a face normal connects along that axis, both
+ * ways (its chains reflect off the opposite face). */
+static uint32_t axis_walks(const hetinv_sensor_t *s) {
+  const ortho_t *o = s->data;
+  int moving = 0, axis = 0;
+  for (int a = 0; a < 3; ++a) {
+    if (o->dir_in[a] != 0.0) {
+      ++moving;
+      axis = a;
+    }
+  }
+  return moving == 1 ? 3u << (2 * axis) : 0u;
+}
+
+static const hv_sensor_kind_t ORTHOGRAPHIC = {
+    .name = "orthographic", .prepare = prepare, .at_vertex = at_vertex, .at_exit = at_exit, .axis_walks = axis_walks};
 
 /* The interior direction that refracts into dir_out, and the factors of a
  * next-event connection along it. */

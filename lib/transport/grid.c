@@ -58,6 +58,48 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
 void hv_grid_release(hv_grid_t *grid) {
   hv_free(grid->ctx, grid->voxel);
   hv_free(grid->ctx, grid->face_storage);
+  hv_free(grid->ctx, grid->axis_depth_storage);
   grid->voxel = NULL;
   grid->face_storage = NULL;
+  grid->axis_depth_storage = NULL;
+  for (int f = 0; f < 6; ++f) grid->axis_depth[f] = NULL;
+}
+
+/* One table: along axis a toward its face `up`, each line of voxels summed
+ * from the box's face inward. */
+static void axis_depth_fill(const hv_grid_t *g, int a, int up, double *out) {
+  int b = (a + 1) % 3, c = (a + 2) % 3;
+  int64_t step = up ? -g->stride[a] : g->stride[a]; /* inward */
+  int32_t first = up ? g->n[a] - 1 : 0;
+  for (int32_t ic = 0; ic < g->n[c]; ++ic) {
+    for (int32_t ib = 0; ib < g->n[b]; ++ib) {
+      int64_t k = ic * g->stride[c] + ib * g->stride[b] + first * g->stride[a];
+      double depth = 0.0;
+      for (int32_t i = 0; i < g->n[a]; ++i, k += step) {
+        out[k] = depth;
+        depth += g->voxel[k].sigma_t * g->h[a];
+      }
+    }
+  }
+}
+
+hetinv_result_t hv_grid_build_axis_depths(hv_grid_t *grid, uint32_t faces) {
+  faces &= 0x3fu;
+  if (grid->uniform || faces == 0) return HETINV_SUCCESS;
+  size_t n = (size_t)grid->n[0] * (size_t)grid->n[1] * (size_t)grid->n[2];
+  size_t tables = 0, bytes = 0;
+  for (int f = 0; f < 6; ++f) tables += (faces >> f) & 1u;
+  if (hv_mul_size(n, tables * sizeof(double), &bytes)) grid->axis_depth_storage = hv_alloc(grid->ctx, bytes);
+  if (grid->axis_depth_storage == NULL) {
+    return HV_FAIL(grid->ctx, HETINV_ERROR_OUT_OF_MEMORY,
+                   "cannot allocate %zu optical-depth tables of %zu voxels", tables, n);
+  }
+  double *t = grid->axis_depth_storage;
+  for (int f = 0; f < 6; ++f) {
+    if (!((faces >> f) & 1u)) continue;
+    axis_depth_fill(grid, f / 2, f % 2, t);
+    grid->axis_depth[f] = t;
+    t += n;
+  }
+  return HETINV_SUCCESS;
 }

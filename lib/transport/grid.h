@@ -41,11 +41,24 @@ typedef struct hv_grid {
    * pass then skip the voxel stepping (hv_ray_march_uniform). */
   int uniform;
   double inv_sigma_t;    /* uniform: 1/σt (inf for σt = 0) */
+  /* Optical depth along an axis from a voxel to the box, per direction of
+   * travel (index 2a + up, as hetinv_face_t): axis_depth[f][k] is
+   * Σ σt·h[a] over the voxels beyond k toward face f; NULL unless built
+   * (hv_grid_build_axis_depths). A walk to the boundary along an axis is
+   * then one lookup: an orthographic camera looking along a face normal
+   * connects every scattering vertex to its face along one. */
+  const double *axis_depth[6];
+  double *axis_depth_storage;
 } hv_grid_t;
 
 /* Builds the grid of a committed medium; release with hv_grid_release. */
 hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out);
 void hv_grid_release(hv_grid_t *grid);
+
+/* Builds axis_depth[f] for every face f in the bit mask `faces` (bit f);
+ * 8 bytes per voxel each. A uniform grid needs none (its walks are one
+ * multiplication) and gets none. */
+hetinv_result_t hv_grid_build_axis_depths(hv_grid_t *grid, uint32_t faces);
 
 /* A ray being tracked: position, unit direction, and its voxel. */
 typedef struct hv_ray {

@@ -43,6 +43,11 @@ struct hv_sensor_kind {
    * the kind scores no exit. */
   void (*at_exit)(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sensor_target_t *t,
                   const hv_exit_t *exit, hv_tally_t *tally);
+  /* The directions of travel (bit 2a + up, as hetinv_face_t) along which
+   * the kind's at_vertex walks axis-parallel rays to the boundary
+   * (hv_ray_to_boundary): the render then tabulates the optical depth
+   * along them (hv_grid_build_axis_depths). NULL: none. */
+  uint32_t (*axis_walks)(const hetinv_sensor_t *s);
 };
 
 #endif

@@ -250,15 +250,58 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
   }
 }
 
+/* The axis a ray runs along, or -1 if it moves on more than one. */
+static inline int hv_ray_axis(const hv_ray_t *r) {
+  int moving = (r->d[0] != 0.0) + (r->d[1] != 0.0) + (r->d[2] != 0.0);
+  if (moving != 1) return -1;
+  return r->d[0] != 0.0 ? 0 : (r->d[1] != 0.0 ? 1 : 2);
+}
+
+/* hv_ray_to_boundary along axis a, whose table g->axis_depth[2a + up] is
+ * built: the rest of the line's optical depth is one lookup. The segments
+ * logged are the walk's: the part of the first voxel ahead, then h[a] per
+ * voxel (divided by |d[a]|, 1 for a unit ray). */
+static inline double hv_ray_to_boundary_axis(const hv_grid_t *g, hv_ray_t *r, int a, double *dist,
+                                             hetinv_face_t *face, hv_path_log_t *log) {
+  int up = r->d[a] > 0.0;
+  int f = 2 * a + up;
+  double ainv = 1.0 / fabs(r->d[a]);
+  const double *fa = g->face[a] + r->v[a];
+  double first = hv_face_distance(r->p[a], r->d[a], fa[0], fa[1]) * ainv;
+  int64_t k = r->k;
+  double depth = g->voxel[k].sigma_t * first + g->axis_depth[f][k] * ainv;
+  int32_t last = up ? g->n[a] - 1 : 0, left = up ? last - r->v[a] : r->v[a];
+  int64_t step = up ? g->stride[a] : -g->stride[a];
+  if (log) {
+    double seg = g->h[a] * ainv;
+    hv_path_log_add(log, HV_LOG_SEGMENT, k, first);
+    for (int32_t i = 0; i < left; ++i) hv_path_log_add(log, HV_LOG_SEGMENT, k += step, seg);
+  } else {
+    k += left * step;
+  }
+  double bound = up ? g->hi[a] : g->lo[a];
+  *dist = fabs(bound - r->p[a]) * ainv;
+  r->p[a] = bound;
+  r->v[a] = last;
+  r->k = k;
+  *face = (hetinv_face_t)f;
+  return depth;
+}
+
 /* Moves the ray straight to the boundary; returns the optical depth crossed
  * and sets *dist and *face. */
-static inline double hv_ray_to_boundary(const hv_grid_t *g, hv_ray_t *r, double *dist,
-                                        hetinv_face_t *face, hv_path_log_t *log) {
+HV_ALWAYS_INLINE static inline double hv_ray_to_boundary(const hv_grid_t *g, hv_ray_t *r,
+                                                         double *dist, hetinv_face_t *face,
+                                                         hv_path_log_t *log) {
   if (g->uniform) {
     double p0[3] = {r->p[0], r->p[1], r->p[2]};
     hv_ray_exit_box(g, r, dist, face);
     if (log) hv_path_log_add_ray(log, p0, r->d, *dist);
     return g->voxel[0].sigma_t * *dist;
+  }
+  int a = hv_ray_axis(r);
+  if (a >= 0 && g->axis_depth[2 * a + (r->d[a] > 0.0)]) {
+    return hv_ray_to_boundary_axis(g, r, a, dist, face, log);
   }
   hv_walk_t w;
   hv_walk_init(g, r, &w);

@@ -24,8 +24,8 @@ static void count_exit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_se
   hv_score(plan, t, tally, tally->values, tally->grad ? &tally->grad->path : NULL, 0, out->tau, out->w);
 }
 
-static const hv_sensor_kind_t EXIT_COUNTER = {"exit counter", NULL, NULL, count_exit};
-static const hv_sensor_kind_t BLIND = {"blind", NULL, NULL, NULL};
+static const hv_sensor_kind_t EXIT_COUNTER = {.name = "exit counter", .at_exit = count_exit};
+static const hv_sensor_kind_t BLIND = {.name = "blind"};
 
 /* The toy kind's create function: the whole face as one pixel. */
 static hetinv_sensor_t *create(const hetinv_medium_t *m, const hv_sensor_kind_t *kind, hetinv_face_t face) {

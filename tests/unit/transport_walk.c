@@ -5,8 +5,10 @@
  * reference's length, in the reference's voxel (the gradient's scores
  * need exactly these). Heterogeneous grids with vacuum voxels, random rays
  * and rays along the axes on voxel faces and edges (a pencil beam's first
- * flight); the uniform fast path against the same grid stepped; and the
- * split of a path's logged rays, each started where the last one ended.
+ * flight); walks to the boundary along an axis by their optical-depth
+ * table against the same rays walked; the uniform fast path against the
+ * same grid stepped; and the split of a path's logged rays, each started
+ * where the last one ended.
  * Runs in well under a second. */
 #include <math.h>
 #include <stdbool.h>
@@ -293,6 +295,75 @@ static void rays_to_boundary_match_reference(void **state) {
   fixture_free(&f);
 }
 
+/* hv_ray_to_boundary along an axis with its optical-depth table built (one
+ * lookup) against the same grid walked voxel by voxel, and both against the
+ * reference: depth, distance, face, the end point and voxel, and the
+ * segments logged. Rays start anywhere, on voxel faces and edges, and on
+ * the box's faces, with ±0 components. */
+static void axis_rays_to_boundary_match_walk(void **state) {
+  (void)state;
+  uint64_t seed = UINT64_C(0x452821e638d01377);
+  fixture_t f;
+  fixture_make(&f, &seed);
+  hv_grid_t walked = f.grid; /* the tables not built: every ray walks */
+  assert_ok(hv_grid_build_axis_depths(&f.grid, 0x3fu));
+  const hv_grid_t *g = &f.grid;
+  for (int t = 0; t < 6; ++t) assert_non_null(g->axis_depth[t]);
+  assert_null(walked.axis_depth[0]);
+  hv_path_log_t log = make_log(&f), log_walked = make_log(&f);
+  for (int i = 0; i < RAYS; ++i) {
+    int a = i % 3, sign = (i / 3) % 2 ? 1 : -1;
+    double p[3], d[3] = {i % 5 ? 0.0 : -0.0, i % 7 ? -0.0 : 0.0, i % 11 ? 0.0 : -0.0};
+    d[a] = sign;
+    for (int b = 0; b < 3; ++b) {
+      int32_t v = (int32_t)(next_u64(&seed) % (uint64_t)(g->n[b] + 1));
+      p[b] = i % 4 ? LO[b] + (HI[b] - LO[b]) * uniform(&seed) : g->face[b][v];
+    }
+    if (i % 9 == 0) p[a] = sign > 0 ? LO[a] : HI[a];
+    seg_t ref[MAX_SEG];
+    double t_exit = exit_distance(g, p, d);
+    int n = reference_segments(g, p, d, t_exit, ref);
+    double depth_ref = 0.0;
+    for (int j = 0; j < n; ++j) depth_ref += g->voxel[ref[j].k].sigma_t * ref[j].length;
+    hv_ray_t r = {.p = {p[0], p[1], p[2]}, .d = {d[0], d[1], d[2]}}, rw = r;
+    hv_ray_locate(g, &r);
+    hv_ray_locate(&walked, &rw);
+    hv_path_log_reset(&log);
+    hv_path_log_reset(&log_walked);
+    double dist, dist_w;
+    hetinv_face_t face, face_w;
+    double depth = hv_ray_to_boundary(g, &r, &dist, &face, &log);
+    double depth_w = hv_ray_to_boundary(&walked, &rw, &dist_w, &face_w, &log_walked);
+    if (fabs(depth - depth_w) > 1e-12 * (1.0 + depth_w) || fabs(dist - dist_w) > 1e-12 ||
+        face != face_w || r.k != rw.k || fabs(depth - depth_ref) > 1e-10 * (1.0 + depth_ref)) {
+      print_error("ray %d: table depth %.17g dist %.17g face %d voxel %lld; walk %.17g %.17g %d %lld; "
+                  "reference depth %.17g\n", i, depth, dist, (int)face, (long long)r.k, depth_w, dist_w,
+                  (int)face_w, (long long)rw.k, depth_ref);
+      fail();
+    }
+    for (int b = 0; b < 3; ++b) {
+      assert_true(r.p[b] == rw.p[b]);
+      assert_int_equal(r.v[b], rw.v[b]);
+    }
+    check_log(&log, ref, n, i);
+    check_log(&log_walked, ref, n, i);
+  }
+  /* A ray off the axes still walks. */
+  double d[3] = {0.6, 0.0, 0.8}, p[3] = {0.1, 0.5, 2.5};
+  hv_ray_t r = {.p = {p[0], p[1], p[2]}, .d = {d[0], d[1], d[2]}};
+  hv_ray_locate(g, &r);
+  seg_t ref[MAX_SEG];
+  int n = reference_segments(g, p, d, exit_distance(g, p, d), ref);
+  double dist;
+  hetinv_face_t face;
+  hv_path_log_reset(&log);
+  hv_ray_to_boundary(g, &r, &dist, &face, &log);
+  check_log(&log, ref, n, -1);
+  hv_path_log_release(&log);
+  hv_path_log_release(&log_walked);
+  fixture_free(&f);
+}
+
 /* A grid of equal voxels takes the uniform fast path (one multiplication
  * per flight, no stepping); the same grid stepped voxel by voxel must end
  * every flight at the same point, on the same face, over the same
@@ -426,6 +497,7 @@ int main(void) {
       cmocka_unit_test(random_flights_match_reference),
       cmocka_unit_test(axis_rays_on_faces_match_reference),
       cmocka_unit_test(rays_to_boundary_match_reference),
+      cmocka_unit_test(axis_rays_to_boundary_match_walk),
       cmocka_unit_test(uniform_grid_matches_stepped),
       cmocka_unit_test(continuous_log_rays_split_as_reference),
   };
