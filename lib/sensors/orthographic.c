@@ -46,6 +46,10 @@ typedef struct ortho {
    * projected-area factor |cos| and the pixel area. */
   double connection_scale;
   double ballistic_scale; /* 1 / pixel area */
+  /* dir_in is the face's normal: every leg of a chain then keeps the
+   * vertex's place on the face (its other coordinates), so the vertex's
+   * pixel is known before any walk. */
+  bool normal;
 } ortho_t;
 
 /* Per (emitter, sensor): the Fresnel reflectance of dir_in at the faces of
@@ -72,6 +76,10 @@ static void at_vertex(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sen
   const ortho_t *o = s->data;
   const double *d_in = vertex->d, *reflectance = t->cache;
   const hv_grid_t *grid = tr->grid;
+  /* A vertex outside the pixels of a camera that looks along the normal
+   * cannot reach it by any chain: no walk, no draw. A probe of a few
+   * pixels is missed by nearly every vertex. */
+  if (o->normal && hv_sensor_pixel_at(s, vertex->p) < 0) return;
   hv_grad_tally_t *gt = tally->grad;
   hv_path_log_t *chain = gt ? &gt->chain : NULL;
   bool matched = grid->eta == grid->eta_out; /* no reflections: the direct chain only */
@@ -165,14 +173,7 @@ static void at_exit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_senso
  * ways (its chains reflect off the opposite face). */
 static uint32_t axis_walks(const hetinv_sensor_t *s) {
   const ortho_t *o = s->data;
-  int moving = 0, axis = 0;
-  for (int a = 0; a < 3; ++a) {
-    if (o->dir_in[a] != 0.0) {
-      ++moving;
-      axis = a;
-    }
-  }
-  return moving == 1 ? 3u << (2 * axis) : 0u;
+  return o->normal ? 3u << (2 * hv_face_axis(s->face)) : 0u;
 }
 
 static const hv_sensor_kind_t ORTHOGRAPHIC = {
@@ -201,6 +202,8 @@ static hetinv_result_t set_direction(hetinv_sensor_t *s, ortho_t *o, const doubl
                    d[2], s->geo.eta, s->geo.eta_out);
   }
   for (int a = 0; a < 3; ++a) o->dir_in[a] = -back_in[a];
+  int face_axis = hv_face_axis(s->face);
+  o->normal = o->dir_in[(face_axis + 1) % 3] == 0.0 && o->dir_in[(face_axis + 2) % 3] == 0.0;
   double cos_in = fabs(o->dir_in[hv_face_axis(s->face)]), cos_t;
   double eta = s->geo.eta_out / s->geo.eta; /* leaving: η_t / η_i */
   double R = hv_fresnel_dielectric(cos_in, eta, &cos_t);
