@@ -204,7 +204,7 @@ static hetinv_result_t set_direction(hetinv_sensor_t *s, ortho_t *o, const doubl
   for (int a = 0; a < 3; ++a) o->dir_in[a] = -back_in[a];
   int face_axis = hv_face_axis(s->face);
   o->normal = o->dir_in[(face_axis + 1) % 3] == 0.0 && o->dir_in[(face_axis + 2) % 3] == 0.0;
-  double cos_in = fabs(o->dir_in[hv_face_axis(s->face)]), cos_t;
+  double cos_in = fabs(o->dir_in[face_axis]), cos_t;
   double eta = s->geo.eta_out / s->geo.eta; /* leaving: η_t / η_i */
   double R = hv_fresnel_dielectric(cos_in, eta, &cos_t);
   double area = s->pixel_size[0] * s->pixel_size[1];
