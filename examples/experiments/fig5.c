@@ -388,6 +388,10 @@ static int verdict_of(hetinv_context_t *ctx, const hetinv_medium_t *truth, const
     printf("  %-8s %zu of %zu over, %zu not explained\n", hetinv_param_name((hetinv_param_t)p), v.over[p],
            v.voxels[p], v.unexplained[p]);
   }
+  printf("against a recovery as good as the data allow (each voxel's error N(0, bound^2)): over and not\n"
+         "within, achieved / expected; P(it meets the target); z = error / bound: mean, mean square, max |z|\n"
+         "achieved / expected:\n");
+  for (int p = 0; p < 3; ++p) experiment_verdict_print_efficient(&v, p, "");
   return 0;
 }
 

@@ -31,6 +31,20 @@ float *experiment_vol_load(hetinv_context_t *ctx, const char *path, int32_t d[3]
   return NULL;
 }
 
+double experiment_normal_tail2(double t) { return erfc(fabs(t) / sqrt(2.0)); }
+
+double experiment_expected_max_abs_normal(size_t n) {
+  /* E[max] = ∫ P(max > t) dt over t >= 0, P(max > t) = 1 - (1 - tail(t))^n;
+   * the integrand is below 1e-16 past t = 12 for any n a grid has. */
+  const double dt = 1e-3;
+  double sum = 0.0;
+  for (double t = 0.5 * dt; t < 12.0; t += dt) {
+    double tail = experiment_normal_tail2(t);
+    sum += -expm1((double)n * log1p(-tail)) * dt;
+  }
+  return sum;
+}
+
 void experiment_verdict_voxel(experiment_verdict_t *v, int p, double truth, double recovered, double bound,
                               double max_error) {
   if (!(bound > 0.0) || !isfinite(bound) || truth == 0.0) return;
@@ -40,6 +54,25 @@ void experiment_verdict_voxel(experiment_verdict_t *v, int p, double truth, doub
   /* The allowance grows with the bound only where the bound exceeds the target. */
   double allowed = bound > max_error ? VERDICT_BOUND_FACTOR * bound : max_error;
   v->unexplained[p] += err > allowed;
+  double p_over = experiment_normal_tail2(max_error / bound), p_miss = experiment_normal_tail2(allowed / bound);
+  v->efficient_over[p] += p_over;
+  v->efficient_unexplained[p] += p_miss;
+  v->efficient_log_meet[p] += log1p(-p_miss);
+  if (p_miss > v->efficient_hardest_miss[p]) v->efficient_hardest_miss[p] = p_miss;
+  double z = (recovered - truth) / (fabs(truth) * bound);
+  v->z_sum[p] += z;
+  v->z2_sum[p] += z * z;
+  if (fabs(z) > v->z_max[p]) v->z_max[p] = fabs(z);
+}
+
+void experiment_verdict_print_efficient(const experiment_verdict_t *v, int p, const char *label) {
+  size_t n = v->voxels[p];
+  if (n == 0) return;
+  printf("  %-30s %-8s over %5zu / %6.1f  not within %5zu / %6.1f  P(meet) %.3g-%.3g  z mean %+.2f  "
+         "z^2 mean %.2f  max|z| %.1f / %.1f\n",
+         label, hetinv_param_name((hetinv_param_t)p), v->over[p], v->efficient_over[p], v->unexplained[p],
+         v->efficient_unexplained[p], exp(v->efficient_log_meet[p]), 1.0 - v->efficient_hardest_miss[p],
+         v->z_sum[p] / (double)n, v->z2_sum[p] / (double)n, v->z_max[p], experiment_expected_max_abs_normal(n));
 }
 
 static int add_param(hetinv_context_t *ctx, const char *dir, int p, hetinv_image_t *bound, bool local,

@@ -18,7 +18,32 @@ typedef struct experiment_verdict {
   size_t voxels[3];      /* compared: with a finite, positive bound */
   size_t over[3];        /* of those, error > VERDICT_MAX_ERROR */
   size_t unexplained[3]; /* of those, not within VERDICT_BOUND_FACTOR × a bound over 15 % */
+  /* The same counts for an efficient unbiased recovery, whose relative
+   * error at each voxel is N(0, bound²): what the data alone would give.
+   * The expected counts hold whatever the errors' correlations. */
+  double efficient_over[3];        /* E[over] */
+  double efficient_unexplained[3]; /* E[unexplained] */
+  /* P(every voxel within its allowance) for that recovery lies between
+   * exp(efficient_log_meet) (the product over voxels: Šidák's inequality
+   * makes it a lower bound for any correlation of Gaussian errors) and
+   * 1 - efficient_hardest_miss (the hardest voxel's own probability). */
+  double efficient_log_meet[3];
+  double efficient_hardest_miss[3];
+  /* The achieved errors in units of their bound, z = (recovered - truth) /
+   * (truth · bound): Σz (a bias shows as a mean far from 0), Σz² (mean
+   * near 1 for an efficient recovery) and max |z|. */
+  double z_sum[3], z2_sum[3], z_max[3];
 } experiment_verdict_t;
+
+/* P(|N(0, 1)| > t). */
+double experiment_normal_tail2(double t);
+
+/* The expected max |z| of n independent N(0, 1) values, for reading z_max
+ * (about 3.5 at n = 1875). */
+double experiment_expected_max_abs_normal(size_t n);
+
+/* Prints v's efficient-recovery lines for parameter p under `label`. */
+void experiment_verdict_print_efficient(const experiment_verdict_t *v, int p, const char *label);
 
 /* Adds one cell's counts to *v: reads <dir>/truth_<p>.vol,
  * <dir>/recovered_<p>.vol and the bound maps of <dir>/bound.exr (the full
