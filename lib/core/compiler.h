@@ -4,8 +4,10 @@
 
 #if defined(__GNUC__) || defined(__clang__)
 #define HV_ALWAYS_INLINE __attribute__((always_inline))
+#define HV_PREFETCH(address) __builtin_prefetch(address)
 #else
 #define HV_ALWAYS_INLINE
+#define HV_PREFETCH(address) ((void)(address))
 #endif
 
 /* The photon loop is compiled twice, for x86-64-v3 (AVX2, BMI: a rounding

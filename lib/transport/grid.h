@@ -41,6 +41,18 @@ typedef struct hv_grid {
    * pass then skip the voxel stepping (hv_ray_march_uniform). */
   int uniform;
   double inv_sigma_t;    /* uniform: 1/σt (inf for σt = 0) */
+  /* Forward passes of a non-uniform grid sample free flights by delta
+   * tracking against the majorant σ̄ = max σt when that is cheaper than
+   * stepping voxel by voxel (hv_grid_choose_tracking); passes that score
+   * gradients need each voxel's segment and always step. */
+  int delta;
+  double majorant, inv_majorant;
+  /* delta: per voxel, q = floor(256 σt/σ̄) clamped to 255, one byte: the
+   * acceptance test reads it (a megabyte per million voxels stays in a
+   * core's cache, the 32-byte records do not) and reads σt only when its
+   * draw falls within 2/256 of q/256, so the test's outcome is the exact
+   * one. NULL unless delta. */
+  uint8_t *sigma_t_q;
   /* Optical depth along an axis from a voxel to the box, per direction of
    * travel (index 2a + up, as hetinv_face_t): axis_depth[f][k] is
    * Σ σt·h[a] over the voxels beyond k toward face f; NULL unless built
@@ -54,6 +66,13 @@ typedef struct hv_grid {
 /* Builds the grid of a committed medium; release with hv_grid_release. */
 hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out);
 void hv_grid_release(hv_grid_t *grid);
+
+/* Sets grid->delta by the cost per unit length of either tracking: delta
+ * tracking pays one tentative collision per 1/σ̄, stepping one crossing per
+ * voxel face (Σ_a E|d_a| / h_a = Σ_a 1/(2 h_a) for isotropic directions)
+ * and a set-up per collision (σt's mean). Costs from hetinv-bench-forward
+ * (docs/results/kernel.md). */
+hetinv_result_t hv_grid_choose_tracking(hv_grid_t *grid);
 
 /* Builds axis_depth[f] for every face f in the bit mask `faces` (bit f);
  * 8 bytes per voxel each. A uniform grid needs none (its walks are one

@@ -8,6 +8,7 @@
 #include "medium/phase.h"
 #include "sampling/emitter_internal.h"
 #include "transport/sensor_kind.h"
+#include "transport/delta.h"
 #include "transport/walk.h"
 
 typedef struct extinction_visit {
@@ -117,7 +118,9 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
      * stream's buffered outputs, whose counters are never these. */
     philox4x32_ctr_t blk = hv_rng_block(rng);
     double depth = hv_exp_sample(tr->exp_table, (uint64_t)blk.v[0] << 32 | blk.v[1], rng);
-    int collided = hv_ray_march(grid, &r, depth, &dist, &face, plog);
+    int collided = !grad && grid->delta
+                       ? hv_ray_march_delta(grid, &r, depth, tr->exp_table, rng, &dist, &face)
+                       : hv_ray_march(grid, &r, depth, &dist, &face, plog);
     tau += dist;
     if (!collided) {
       if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) break;

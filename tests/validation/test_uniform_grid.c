@@ -1,11 +1,12 @@
 /* A heterogeneous medium whose voxels all hold the same values is the
  * homogeneous medium: a 5 × 4 × 3 grid of equal voxels must give the
- * 1-voxel answer. The tracking is exact per voxel (regular tracking), so
- * only the rounding of positions differs between the two grids, and with it
- * the random histories; to compare statistically with independent errors,
+ * 1-voxel answer. The tracking is exact in law (free flights by delta
+ * tracking, whose majorant here equals every voxel's σt; connections to
+ * the sensors stepped voxel by voxel), so the random histories differ
+ * between the two grids; to compare statistically with independent errors,
  * the two renders use different random streams. (The library recognises
  * grids of identical voxels and tracks them as one voxel; one voxel of the
- * grid differs by one ulp of g so that the voxel stepping is what is
+ * grid differs by one ulp of g so that the grid's trackers are what is
  * compared with the single voxel.)
  *
  * η = 1.3, so photons cross voxel faces both in free flight and along the
