@@ -37,6 +37,8 @@
 #pragma GCC diagnostic pop
 #endif
 
+#include "core/compiler.h"
+
 #define HV_RNG_PHOTON_LIMIT (UINT64_C(1) << 48) /* photon indices are < this */
 #define HV_RNG_STREAM_LIMIT (UINT32_C(1) << 16) /* stream ids are < this */
 
@@ -83,7 +85,7 @@ static inline philox4x32_ctr_t hv_philox4x32_10(philox4x32_ctr_t ctr, philox4x32
 }
 
 /* Next 32 random bits. */
-static inline uint32_t hv_rng_u32(hv_rng_t *r) {
+HV_ALWAYS_INLINE static inline uint32_t hv_rng_u32(hv_rng_t *r) {
   if (r->used == 4) {
     r->out = hv_philox4x32_10(r->ctr, r->key);
     ++r->ctr.v[0];
@@ -101,7 +103,7 @@ static inline philox4x32_ctr_t hv_rng_block(hv_rng_t *r) {
 }
 
 /* Next 64 random bits (two outputs, the first in the high half). */
-static inline uint64_t hv_rng_u64(hv_rng_t *r) {
+HV_ALWAYS_INLINE static inline uint64_t hv_rng_u64(hv_rng_t *r) {
   uint64_t hi = hv_rng_u32(r);
   return hi << 32 | hv_rng_u32(r);
 }
@@ -122,7 +124,7 @@ static inline double hv_open_unit_from_bits(uint64_t bits) {
 static inline double hv_unit_from_u32(uint32_t bits) { return (double)bits * 0x1p-32; }
 
 /* Uniform in [0, 1) with 53 random bits. */
-static inline double hv_rng_uniform(hv_rng_t *r) { return hv_unit_from_bits(hv_rng_u64(r)); }
+HV_ALWAYS_INLINE static inline double hv_rng_uniform(hv_rng_t *r) { return hv_unit_from_bits(hv_rng_u64(r)); }
 
 /* Uniform in (0, 1), for -log(u) and the like. */
 static inline double hv_rng_uniform_open(hv_rng_t *r) {
