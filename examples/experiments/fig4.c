@@ -11,7 +11,7 @@
  *               [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]
  *               [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--truth-photons N]
- *               [--coordinates native|reduced] [--grid N] [--scale S]
+ *               [--coordinates native|reduced|log] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]
@@ -88,7 +88,8 @@
  * standard errors of the residual, not of the data alone;
  * --decay D its running means'
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
- * as (σs(1 − g), g) (optimizer.coordinates). --min-snr S leaves out of
+ * as (σs(1 − g), g), --coordinates log each value in ln π
+ * (optimizer.coordinates). --min-snr S leaves out of
  * the loss and the bound every value whose standard error exceeds
  * value/S (acquisition.min_snr of hetinv-reconstruct; default 3, 0 keeps
  * every value).
@@ -132,7 +133,7 @@ static int usage(const char *what) {
           "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]\n"
           "                   [--residual-weights]\n"
           "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"
-          "                   [--coordinates native|reduced] [--grid N] [--scale S]\n"
+          "                   [--coordinates native|reduced|log] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]\n"
@@ -647,14 +648,14 @@ int main(int argc, char **argv) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &decay) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--coordinates") == 0) {
-      if (next == NULL) return usage("--coordinates needs native or reduced");
+      if (next == NULL) return usage("--coordinates needs native, reduced or log");
       coordinates = -1;
       for (int k = 0; recon_coordinate_names[k] != NULL; ++k) {
         if (strcmp(next, recon_coordinate_names[k]) == 0) coordinates = k;
       }
       if (coordinates < 0) {
         char msg[300];
-        snprintf(msg, sizeof msg, "--coordinates: '%s' is neither native nor reduced", next);
+        snprintf(msg, sizeof msg, "--coordinates: '%s' is not native, reduced or log", next);
         return usage(msg);
       }
       ++i;

@@ -156,7 +156,14 @@ enum hetinv_coordinates_id {
    *  which a per-entry step crosses slowly; here the valley lies along g. The
    *  result, bounds, averaging and π stay native. */
   HETINV_COORDINATES_REDUCED = 1,
-  HETINV_COORDINATES_COUNT_ = 2 /**< not a value: one past the last */
+  /** Each π entry whose box is 0 < lo < hi < ∞ moves in ln π, its scale
+   *  ln(hi / lo): a step changes it by a factor, so the step's noise floor
+   *  (ε) is relative to the value, not to the box's width, and a value near
+   *  the box's floor wanders no further in relative terms than one near its
+   *  top. Other entries move natively. The result, bounds, averaging and π
+   *  stay native. Added in 0.3. */
+  HETINV_COORDINATES_LOG = 2,
+  HETINV_COORDINATES_COUNT_ = 3 /**< not a value: one past the last */
 };
 
 /** Why a run ended: a value of enum hetinv_stop_reason_id. */

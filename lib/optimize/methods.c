@@ -6,7 +6,14 @@
  * (similarity, the paper's Lemma 1), so in native coordinates the loss has a
  * long narrow valley along σs(1 − g) = const that a per-entry step (every
  * method here) crosses slowly; in reduced coordinates the valley lies along
- * the g axis, where a per-entry step adapts to it. */
+ * the g axis, where a per-entry step adapts to it.
+ *
+ * With HETINV_COORDINATES_LOG an entry with a positive bounded box moves in
+ * ln π at the scale ln(hi/lo): once the gradient is mostly noise, ADADELTA's
+ * steps settle at about ε times the scale, which natively is the box's
+ * width, the same absolute size for a value at the box's floor as at its
+ * top, so values near the floor wander furthest in relative terms (Fig. 4's
+ * worst voxels at full size). In ln π the wander is relative. */
 #include <math.h>
 
 #include "optimize/optimizer_internal.h"
@@ -16,9 +23,10 @@ typedef struct method {
   double gamma, eps, rate, b1, b2, c1, c2;
 } method_t;
 
-/* The method's move of entry i for gradient g, updating its accumulators. */
-static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double g) {
-  double s = opt->scale[i], d = 0.0;
+/* The method's move of entry i for gradient g at scale s (the entry's, or
+ * its log coordinate's), updating its accumulators. */
+static double delta_at(const method_t *m, hetinv_optimizer_t *opt, size_t i, double g, double s) {
+  double d = 0.0;
   double *a1 = &opt->acc1[i], *a2 = &opt->acc2[i];
   switch (m->id) {
     case HETINV_METHOD_ADADELTA: {
@@ -44,6 +52,17 @@ static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double
       break;
   }
   return d;
+}
+
+static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double g) {
+  return delta_at(m, opt, i, g, opt->scale[i]);
+}
+
+/* HETINV_COORDINATES_LOG: entry i in u = ln π, whose gradient is π·g and
+ * whose scale is ln(hi/lo); 0 if the entry's box does not allow it. */
+static double log_scale(const hetinv_optimizer_t *opt, size_t i) {
+  double lo = opt->lo_k[i], hi = opt->hi_k[i];
+  return lo > 0.0 && hi > lo && isfinite(hi) ? log(hi / lo) : 0.0;
 }
 
 static double clamp(double x, double lo, double hi) { return fmin(fmax(x, lo), hi); }
@@ -84,6 +103,7 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
                 epsilon,
                 par[HETINV_OPTIMIZER_LEARNING_RATE], b1, b2, 1.0 - pow(b1, t), 1.0 - pow(b2, t)};
   bool reduced = par[HETINV_OPTIMIZER_COORDINATES] == HETINV_COORDINATES_REDUCED;
+  bool logs = par[HETINV_OPTIMIZER_COORDINATES] == HETINV_COORDINATES_LOG;
   double sq = 0.0;
   size_t moved = 0;
   for (size_t i = 0; i < opt->k; ++i) {
@@ -95,6 +115,13 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
       reduced_step(&m, opt, i, (size_t)j, &d, &dj);
       sq += (dj / opt->scale[j]) * (dj / opt->scale[j]);
       ++moved;
+    } else if (logs && log_scale(opt, i) > 0.0) {
+      double s = log_scale(opt, i), pi = opt->pi[i];
+      double du = delta_at(&m, opt, i, pi * opt->grad[i], s);
+      opt->pi[i] = clamp(pi * exp(-du), opt->lo_k[i], opt->hi_k[i]);
+      sq += (du / s) * (du / s);
+      ++moved;
+      continue;
     } else {
       d = delta(&m, opt, i, opt->grad[i]);
       opt->pi[i] = clamp(opt->pi[i] - d, opt->lo_k[i], opt->hi_k[i]);

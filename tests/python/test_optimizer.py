@@ -132,6 +132,8 @@ class Configuration(unittest.TestCase):
             self.assertEqual(opt.get_param("coordinates"), hetinv.COORDINATES_NATIVE)
             opt.set_param("coordinates", "reduced")
             self.assertEqual(opt.get_param("coordinates"), hetinv.COORDINATES_REDUCED)
+            opt.set_param("coordinates", "log")
+            self.assertEqual(opt.get_param("coordinates"), hetinv.COORDINATES_LOG)
             with self.assertRaisesRegex(ValueError, "unknown coordinates"):
                 opt.set_param("coordinates", "polar")
             opt.set_param("coordinates", "native")

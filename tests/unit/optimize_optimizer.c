@@ -656,6 +656,42 @@ static void reduced_coordinates_step_by_the_chain_rule(void **state) {
   assert_close(h.pi[2], 0.2 - 0.1 * 1.98 * 1.98 * 0.02, 1e-14);
 }
 
+/* Log coordinates: entries 0 and 1 (box [1, 10]) step in ln π with the
+ * gradient π·g at scale ln 10; entry 2 (g's box [-0.99, 0.99], not
+ * positive) stays native. SGD: δu = rate·s²·(π·g). */
+static void log_coordinates_step_by_a_factor(void **state) {
+  (void)state;
+  hand_t h;
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG;
+  h.pi[1] = 1.5; /* near the floor */
+  h.grad[0] = 0.01, h.grad[1] = 0.01, h.grad[2] = 0.02;
+  double s = log(10.0);
+  double du0 = 0.1 * s * s * (5 * 0.01), du1 = 0.1 * s * s * (1.5 * 0.01);
+  double dg = 0.1 * 1.98 * 1.98 * 0.02;
+  double rms = hv_method_step(&h.opt, NULL, 0.01);
+  assert_close(h.pi[0], 5 * exp(-du0), 1e-14);
+  assert_close(h.pi[1], 1.5 * exp(-du1), 1e-14);
+  assert_close(h.pi[2], 0.2 - dg, 1e-14);
+  double d0 = du0 / s, d1 = du1 / s, d2 = dg / 1.98;
+  assert_close(rms, sqrt((d0 * d0 + d1 * d1 + d2 * d2) / 3), 1e-14);
+  /* ADADELTA's first step is sqrt(ε_k / (1 − γ))·sign(g), ε_k = (ε·s)²:
+   * the same factor for every value, wherever it sits in the box. */
+  hand_init(&h, HETINV_METHOD_ADADELTA);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG;
+  h.pi[1] = 1.5;
+  h.grad[0] = 3.0, h.grad[1] = 3.0;
+  hv_method_step(&h.opt, NULL, 0.01);
+  assert_close(h.pi[0] / 5.0, exp(-0.01 * s / sqrt(0.1)), 1e-12);
+  assert_close(h.pi[1] / 1.5, exp(-0.01 * s / sqrt(0.1)), 1e-12);
+  /* A step past the floor stops at it. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG;
+  h.grad[0] = 10.0;
+  hv_method_step(&h.opt, NULL, 0.01);
+  assert_true(h.pi[0] == 1.0);
+}
+
 /* ------------------------------------------------------------------------ */
 /* 2. Every method lowers the loss: σs of a uniform medium from 8 toward 3. */
 
@@ -2049,6 +2085,7 @@ int main(void) {
       cmocka_unit_test(adadelta_steps_with_the_stage_epsilon),
       cmocka_unit_test(other_methods_step_as_documented),
       cmocka_unit_test(reduced_coordinates_step_by_the_chain_rule),
+      cmocka_unit_test(log_coordinates_step_by_a_factor),
       cmocka_unit_test(every_method_moves_sigma_s_toward_the_truth),
       cmocka_unit_test(iterates_never_leave_the_box),
       cmocka_unit_test(frozen_entries_never_move),

@@ -26,7 +26,7 @@ from ._errors import (
 )
 from ._arrays import flat, numpy_available, numpy_enabled, use_numpy
 from ._names import (
-    COORDINATES_NATIVE, COORDINATES_REDUCED,
+    COORDINATES_NATIVE, COORDINATES_REDUCED, COORDINATES_LOG,
     FACE_X_MAX, FACE_X_MIN, FACE_Y_MAX, FACE_Y_MIN, FACE_Z_MAX, FACE_Z_MIN,
     FREE_ALL, FREE_G, FREE_SIGMA_A, FREE_SIGMA_S,
     GAIN_GLOBAL, GAIN_NONE, GAIN_PER_EMITTER,
