@@ -88,8 +88,8 @@
  * standard errors of the residual, not of the data alone;
  * --decay D its running means'
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
- * as (σs(1 − g), g), --coordinates log each value with a positive box in
- * ln π (optimizer.coordinates; --full's default, native otherwise). --min-snr S leaves out of
+ * as (σs(1 − g), g), --coordinates log (the default, the built-in
+ * scene's) each value with a positive box in ln π (optimizer.coordinates). --min-snr S leaves out of
  * the loss and the bound every value whose standard error exceeds
  * value/S (acquisition.min_snr of hetinv-reconstruct; default 3, 0 keeps
  * every value).
@@ -191,13 +191,6 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
      * Both measured in docs/results/fig4.md. */
     sc->multiscale = 1.0;
     sc->truth_photons = 120000;
-    /* Steps relative to each σ (ln π): natively ADADELTA's noise floor is a
-     * share of the box's width, so the worst voxels were values near the
-     * box's floor, all too high. Chosen on volumes 1-2 ((4): g 21.4 ->
-     * 10.2 %, 22.3 -> 12.6 % max), checked on 3-5: every mean lower or
-     * equal but one, 87 voxels over 15 % against 145 at twice the photons
-     * natively (docs/results/fig4.md). */
-    sc->coordinates = HETINV_COORDINATES_LOG;
   } else {
     /* hetinv-reconstruct's built-in scene: a 0.6 mm cube, 6 × 6 section
      * (0.1 mm voxels, pixels and bins), 1 → 2 → 3 → 6 cells, 600
