@@ -109,14 +109,14 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
   for (size_t i = 0; i < opt->k; ++i) {
     if ((frozen && frozen[i]) || (reduced && opt->pair_of_g[i] >= 0)) continue;
     int64_t j = reduced ? opt->pair_of_sigma_s[i] : -1;
-    double d = 0.0;
+    double d = 0.0, s = 0.0;
     if (j >= 0) {
       double dj = 0.0;
       reduced_step(&m, opt, i, (size_t)j, &d, &dj);
       sq += (dj / opt->scale[j]) * (dj / opt->scale[j]);
       ++moved;
-    } else if (logs && log_scale(opt, i) > 0.0) {
-      double s = log_scale(opt, i), pi = opt->pi[i];
+    } else if (logs && (s = log_scale(opt, i)) > 0.0) {
+      double pi = opt->pi[i];
       double du = delta_at(&m, opt, i, pi * opt->grad[i], s);
       opt->pi[i] = clamp(pi * exp(-du), opt->lo_k[i], opt->hi_k[i]);
       sq += (du / s) * (du / s);

@@ -5,7 +5,7 @@
  * collision instead of one step per voxel face: in a medium whose voxels
  * are smaller than a mean free path, or alike, far fewer. It yields no
  * per-voxel segment lengths, so only forward passes use it (score passes
- * step, walk.h); hv_grid_choose_tracking decides per grid. */
+ * step, walk.h); choose_tracking in grid.c decides per grid. */
 #ifndef HV_DELTA_H
 #define HV_DELTA_H
 

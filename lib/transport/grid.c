@@ -4,6 +4,8 @@
 #include "core/error.h"
 #include "medium/medium_internal.h"
 
+static hetinv_result_t choose_tracking(hv_grid_t *grid);
+
 hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
   *out = (hv_grid_t){0};
   out->ctx = medium->ctx;
@@ -52,7 +54,7 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
   }
   out->eta = medium->eta;
   out->eta_out = medium->eta_out;
-  hetinv_result_t r = hv_grid_choose_tracking(out);
+  hetinv_result_t r = choose_tracking(out);
   if (r != HETINV_SUCCESS) hv_grid_release(out);
   return r;
 }
@@ -65,7 +67,11 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
 #define HV_COST_CROSSING 27.0
 #define HV_COST_FLIGHT 15.0
 
-hetinv_result_t hv_grid_choose_tracking(hv_grid_t *grid) {
+/* Sets grid->delta by the cost per unit length of either tracking: delta
+ * tracking pays one tentative collision per 1/σ̄, stepping one crossing per
+ * voxel face (Σ_a E|d_a| / h_a = Σ_a 1/(2 h_a) for isotropic directions)
+ * and a set-up per collision (σt's mean), and builds its byte table. */
+static hetinv_result_t choose_tracking(hv_grid_t *grid) {
   size_t n = (size_t)grid->n[0] * (size_t)grid->n[1] * (size_t)grid->n[2];
   double max = 0.0, sum = 0.0;
   for (size_t i = 0; i < n; ++i) {

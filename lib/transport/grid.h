@@ -43,7 +43,7 @@ typedef struct hv_grid {
   double inv_sigma_t;    /* uniform: 1/σt (inf for σt = 0) */
   /* Forward passes of a non-uniform grid sample free flights by delta
    * tracking against the majorant σ̄ = max σt when that is cheaper than
-   * stepping voxel by voxel (hv_grid_choose_tracking); passes that score
+   * stepping voxel by voxel (grid.c: choose_tracking); passes that score
    * gradients need each voxel's segment and always step. */
   int delta;
   double majorant, inv_majorant;
@@ -66,13 +66,6 @@ typedef struct hv_grid {
 /* Builds the grid of a committed medium; release with hv_grid_release. */
 hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out);
 void hv_grid_release(hv_grid_t *grid);
-
-/* Sets grid->delta by the cost per unit length of either tracking: delta
- * tracking pays one tentative collision per 1/σ̄, stepping one crossing per
- * voxel face (Σ_a E|d_a| / h_a = Σ_a 1/(2 h_a) for isotropic directions)
- * and a set-up per collision (σt's mean). Costs from hetinv-bench-forward
- * (docs/results/kernel.md). */
-hetinv_result_t hv_grid_choose_tracking(hv_grid_t *grid);
 
 /* Builds axis_depth[f] for every face f in the bit mask `faces` (bit f);
  * 8 bytes per voxel each. A uniform grid needs none (its walks are one
