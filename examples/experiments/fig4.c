@@ -648,16 +648,7 @@ int main(int argc, char **argv) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &decay) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--coordinates") == 0) {
-      if (next == NULL) return usage("--coordinates needs native, reduced or log");
-      coordinates = -1;
-      for (int k = 0; recon_coordinate_names[k] != NULL; ++k) {
-        if (strcmp(next, recon_coordinate_names[k]) == 0) coordinates = k;
-      }
-      if (coordinates < 0) {
-        char msg[300];
-        snprintf(msg, sizeof msg, "--coordinates: '%s' is not native, reduced or log", next);
-        return usage(msg);
-      }
+      if (recon_parse_choice("hetinv-fig4", a, next, recon_coordinate_names, &coordinates) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--min-snr") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &min_snr) < 0) return 2;

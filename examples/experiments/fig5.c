@@ -10,7 +10,7 @@
  *               [--threads N] [--min-snr S] [--lighting probes|cameras]
  *               [--loss-clip C] [--coarse-window N]
  *               [--source-stride N] [--smoothness L] [--multiscale A]
- *               [--truth-seed S] [--bound | --bound-only] [--bound-photons N]
+ *               [--coordinates native|reduced|log] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-spacing S] [--recovered DIR]
  *               [--quiet] [--write-scene]
  *
@@ -77,7 +77,7 @@ static void print_usage(FILE *f) {
           "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
           "                   [--loss-clip C] [--coarse-window N]\n"
           "                   [--source-stride N] [--smoothness L] [--multiscale A]\n"
-          "                   [--truth-seed S] [--bound | --bound-only] [--bound-photons N]\n"
+          "                   [--coordinates native|reduced|log] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-spacing S] [--recovered DIR]\n"
           "                   [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
@@ -105,6 +105,8 @@ static void print_usage(FILE *f) {
           "  --multiscale A  add A times each parameter's mean gradient over its blocks\n"
           "                  of 2, 4, 8, ... cells (optimizer.multiscale; default 1 with\n"
           "                  --full, else 0: none)\n"
+          "  --coordinates C the optimizer's steps (optimizer.coordinates; default native):\n"
+          "                  log steps sigma_a and sigma_s in ln, by factors\n"
           "  --bound         after the recovery, the local Cramer-Rao bound at the truth\n"
           "                  (radius 0, a lower bound of the bound) and whether it explains\n"
           "                  each voxel over 19.73 %%; bound_local_*.vol\n"
@@ -462,6 +464,7 @@ int main(int argc, char **argv) {
   int64_t bound_photons = -1, bound_replicates = 4, bound_spacing = 3;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
   double min_snr = -1.0, loss_clip = -1.0, smoothness = -1.0, multiscale = -1.0;
+  int coordinates = -1;
   int64_t coarse_window = -1, source_stride = -1, truth_seed = -1;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -516,6 +519,9 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--multiscale") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 100.0, &multiscale) < 0) return 2;
+    } else if (strcmp(a, "--coordinates") == 0) {
+      ++i;
+      if (recon_parse_choice(PROG, a, v, recon_coordinate_names, &coordinates) < 0) return 2;
     } else if (strcmp(a, "--truth-seed") == 0) {
       ++i;
       if (recon_parse_count(PROG, a, v, 0, INT64_MAX, &truth_seed) < 0) return 2;
@@ -552,6 +558,7 @@ int main(int argc, char **argv) {
   if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
   if (smoothness >= 0.0) sc.smoothness = smoothness;
   if (multiscale >= 0.0) sc.multiscale = multiscale;
+  if (coordinates >= 0) sc.coordinates = coordinates;
   if (truth_seed >= 0) sc.truth_seed = (uint64_t)truth_seed;
   if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
   if (source_stride > 0) sc.source_stride = (int32_t)source_stride;

@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include "recon.h"
@@ -30,6 +31,20 @@ int recon_parse_real(const char *prog, const char *opt, const char *text, double
   }
   *out = v;
   return 0;
+}
+
+int recon_parse_choice(const char *prog, const char *opt, const char *text, const char *const names[],
+                       int *out) {
+  for (int k = 0; text != NULL && names[k] != NULL; ++k) {
+    if (strcmp(text, names[k]) == 0) {
+      *out = k;
+      return 0;
+    }
+  }
+  fprintf(stderr, "%s: %s: '%s' is not one of", prog, opt, text ? text : "");
+  for (int k = 0; names[k] != NULL; ++k) fprintf(stderr, "%s %s", k ? "," : "", names[k]);
+  fputc('\n', stderr);
+  return -1;
 }
 
 double recon_now(void) {

@@ -319,6 +319,9 @@ int recon_parse_count(const char *prog, const char *opt, const char *text, int64
                       int64_t *out);
 /* The same for a real number in [lo, hi] (NaN is refused). */
 int recon_parse_real(const char *prog, const char *opt, const char *text, double lo, double hi, double *out);
+/* The same for one of the NULL-terminated names (*out: its index). */
+int recon_parse_choice(const char *prog, const char *opt, const char *text, const char *const names[],
+                       int *out);
 double recon_now(void);
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
 
