@@ -328,8 +328,22 @@ HV_ALWAYS_INLINE static inline int64_t hv_walk_segment(const hv_grid_t *g, hv_ra
                                                        double length,
                                                        void (*visit)(void *, int64_t, double),
                                                        void *user) {
+  /* Most segments of a path end in the voxel they start in (a free flight
+   * is about a voxel long): that test needs no divisions, the walk's
+   * set-up three. */
+  double dist[3];
+  int in = 1;
+  for (int a = 0; a < 3; ++a) {
+    const double *f = g->face[a] + r->v[a];
+    dist[a] = hv_face_distance(r->p[a], r->d[a], f[0], f[1]);
+    in &= length * fabs(r->d[a]) <= dist[a];
+  }
+  if (in) {
+    if (length > 0.0) visit(user, r->k, length);
+    return r->k;
+  }
   hv_walk_t w;
-  hv_walk_init(g, r, &w);
+  hv_walk_init_dist(g, r, dist, &w);
   for (double t = 0.0; t < length;) {
     double tn = hv_walk_next(&w);
     double end = tn < length ? tn : length;
