@@ -3,6 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/compiler.h"
 #include "core/context_internal.h"
 
 void *hv_alloc(const hetinv_context_t *ctx, size_t size) {
@@ -17,6 +18,12 @@ void *hv_calloc(const hetinv_context_t *ctx, size_t n, size_t size) {
   void *p = hv_alloc(ctx, total);
   if (p != NULL) memset(p, 0, total);
   return p;
+}
+
+void *hv_calloc_apart(const hetinv_context_t *ctx, size_t n, size_t size) {
+  size_t total;
+  if (!hv_mul_size(n, size, &total) || total > (size_t)-1 - HV_CACHE_GAP) return NULL;
+  return hv_calloc(ctx, 1, total + HV_CACHE_GAP);
 }
 
 void hv_free(const hetinv_context_t *ctx, void *ptr) {

@@ -11,6 +11,10 @@
 void *hv_alloc(const hetinv_context_t *ctx, size_t size);
 /* Zeroed array of n elements; NULL on failure or if n·size overflows. */
 void *hv_calloc(const hetinv_context_t *ctx, size_t n, size_t size);
+/* hv_calloc for one thread's private array, followed by HV_CACHE_GAP
+ * unused bytes, so that its last cache line holds nothing another thread
+ * writes: the heap places blocks side by side. Freed by hv_free. */
+void *hv_calloc_apart(const hetinv_context_t *ctx, size_t n, size_t size);
 /* NULL is a no-op. */
 void hv_free(const hetinv_context_t *ctx, void *ptr);
 /* Copy of a NUL-terminated string; NULL on failure. */

@@ -10,6 +10,12 @@
 #define HV_PREFETCH(address) ((void)(address))
 #endif
 
+/* Bytes that keep two threads' writes off each other's cache lines (64 on
+ * x86-64; the adjacent-line prefetcher pairs lines, and some Arm cores
+ * use 128): per-thread state ends with this much padding. A shared line
+ * costs a transfer between cores on every write, per photon here. */
+#define HV_CACHE_GAP 128
+
 /* The photon loop is compiled twice, for x86-64-v3 (AVX2, BMI: a rounding
  * instruction for floor, wider registers) and for the baseline, and the
  * loader picks one (GNU ifunc). Floating-point contraction stays off in ISO

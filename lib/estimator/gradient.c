@@ -173,9 +173,9 @@ static void reduce_item(void *self, int64_t item, int slot) {
 
 static bool alloc_grad_tally(const hetinv_context_t *ctx, size_t voxels, hv_grad_tally_t *gt) {
   gt->voxels = voxels;
-  gt->grad = hv_calloc(ctx, 3 * voxels, sizeof(double));
-  gt->touched = hv_calloc(ctx, voxels, 1);
-  gt->touched_list = hv_calloc(ctx, voxels, sizeof(int64_t));
+  gt->grad = hv_calloc_apart(ctx, 3 * voxels, sizeof(double));
+  gt->touched = hv_calloc_apart(ctx, voxels, 1);
+  gt->touched_list = hv_calloc_apart(ctx, voxels, sizeof(int64_t));
   gt->path.ctx = gt->chain.ctx = ctx;
   return gt->grad && gt->touched && gt->touched_list;
 }

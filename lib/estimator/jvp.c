@@ -170,8 +170,8 @@ hetinv_result_t hv_tangent_run(const hv_pass_t *pass, const double *tangent, int
     gt->jvp = (hv_jvp_state_t){.grid = &pass->grid, .tangent = tangent, .tangents = tangents,
                                .voxels = voxels, .sparse_start = f.sparse_start,
                                .sparse_index = f.sparse_index, .sparse_value = f.sparse_value};
-    gt->jvp.run = hv_calloc(ctx, 2 * f.T, sizeof(double));
-    f.tallies[t].values = hv_calloc(ctx, slot_values ? slot_values : 1, sizeof(double));
+    gt->jvp.run = hv_calloc_apart(ctx, 2 * f.T, sizeof(double));
+    f.tallies[t].values = hv_calloc_apart(ctx, slot_values ? slot_values : 1, sizeof(double));
     f.tallies[t].grad = gt;
     ok = gt->jvp.run && f.tallies[t].values;
   }

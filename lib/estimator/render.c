@@ -193,8 +193,8 @@ hetinv_result_t hv_forward_run(hetinv_estimator_t *est, const hv_pass_t *pass, d
   bool ok = f.tallies && f.total && f.mean_sum && f.mean_sq && (!ballistic || f.ballistic) &&
             f.stats_sum && f.stats_mean_sum && f.stats_mean_sq;
   for (int t = 0; ok && t < slots; ++t) {
-    f.tallies[t].values = hv_calloc(ctx, count, sizeof(double));
-    if (ballistic) f.tallies[t].ballistic = hv_calloc(ctx, count, sizeof(double));
+    f.tallies[t].values = hv_calloc_apart(ctx, count, sizeof(double));
+    if (ballistic) f.tallies[t].ballistic = hv_calloc_apart(ctx, count, sizeof(double));
     ok = f.tallies[t].values && (!ballistic || f.tallies[t].ballistic);
   }
   hetinv_result_t r = HETINV_SUCCESS;

@@ -6,7 +6,7 @@
 
 bool hv_path_log_grow(hv_path_log_t *log) {
   size_t cap = log->capacity ? 2 * log->capacity : 256;
-  hv_log_entry_t *e = hv_calloc(log->ctx, cap, sizeof *e);
+  hv_log_entry_t *e = hv_calloc_apart(log->ctx, cap, sizeof *e); /* one thread's */
   if (e == NULL) { /* reported by the render after the photon loop */
     log->out_of_memory = true;
     return false;

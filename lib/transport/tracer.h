@@ -6,6 +6,7 @@
 
 #include <stdint.h>
 
+#include "core/compiler.h"
 #include "core/exponential.h"
 #include "core/rng.h"
 #include "transport/grid.h"
@@ -44,6 +45,7 @@ typedef struct hv_grad_tally {
   int64_t *touched_list;
   size_t touched_count;
   hv_jvp_state_t jvp; /* tangent mode (transport/path_jvp.h); unused otherwise */
+  char apart[HV_CACHE_GAP]; /* slots sit side by side in an array */
 } hv_grad_tally_t;
 
 /* Adds amount to entry (param block, voxel) of the tally's gradient. */
@@ -89,6 +91,7 @@ typedef struct hv_tally {
   double *ballistic; /* same layout, or NULL */
   hv_grad_tally_t *grad; /* NULL: forward mode; see hv_grad_tally_t */
   double stats[HV_STAT_COUNT];
+  char apart[HV_CACHE_GAP]; /* slots sit side by side in an array */
 } hv_tally_t;
 
 void hv_trace_photon(const hv_tracer_t *t, const hv_plan_t *plan, hv_rng_t *rng, hv_tally_t *tally);
