@@ -6,6 +6,7 @@
 #include "core/alloc.h"
 #include "core/error.h"
 #include "estimator/estimator_internal.h"
+#include "estimator/grad_scratch.h"
 
 /* Bounds, defaults and integrality of each tunable, indexed by enum value. */
 static const struct {
@@ -37,6 +38,11 @@ HETINV_API hetinv_result_t hetinv_estimator_create(hetinv_context_t *ctx, hetinv
   hetinv_estimator_t *e = hv_calloc(ctx, 1, sizeof *e);
   if (e == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate an estimator");
   e->ctx = ctx;
+  e->grad_scratch = hv_calloc(ctx, 1, sizeof *e->grad_scratch);
+  if (e->grad_scratch == NULL) {
+    hv_free(ctx, e);
+    return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate an estimator");
+  }
   for (int i = 0; i < HETINV_ESTIMATOR_PARAM_COUNT_; ++i) e->param[i] = params[i].fallback;
   *out = e;
   return HETINV_SUCCESS;
@@ -46,6 +52,8 @@ HETINV_API void hetinv_estimator_destroy(hetinv_estimator_t **estimator) {
   HV_API_ENTER();
   if (estimator == NULL || *estimator == NULL) return;
   hv_free((*estimator)->ctx, (*estimator)->gains);
+  hv_grad_scratch_release((*estimator)->ctx, (*estimator)->grad_scratch);
+  hv_free((*estimator)->ctx, (*estimator)->grad_scratch);
   hv_free((*estimator)->ctx, *estimator);
   *estimator = NULL;
 }

@@ -16,6 +16,8 @@ struct hetinv_estimator {
   hetinv_gain_mode_t gain_mode;
   double *gains;
   size_t gain_count, gain_capacity;
+  /* Gradient passes' voxel-sized scratch, kept between calls (grad_scratch.h). */
+  struct hv_grad_scratch *grad_scratch;
 };
 
 /* "HETINV_ESTIMATOR_PHOTONS", ..., for messages of other modules. */

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "estimator/batches.h"
 #include "estimator/gain.h"
+#include "estimator/grad_scratch.h"
 #include "estimator/loss_term.h"
 #include "estimator/pass.h"
 #include "estimator/record.h"
@@ -30,10 +31,11 @@ typedef struct gradient {
   const hv_pass_t *pass;
   const hetinv_param_map_t *map;
   size_t voxels, k;        /* voxel count; length of π */
-  hv_tally_t *tallies;     /* one per tally slot (batches.h) */
-  hv_grad_tally_t *grads;  /* one per tally slot (batches.h) */
-  hv_grad_tally_t emitter; /* the current emitter's partial gradient */
-  double *total;           /* Σ over emitters, per voxel entry (3 blocks) */
+  hv_tally_t *tallies;      /* one per tally slot (batches.h) */
+  /* The estimator's scratch (grad_scratch.h), which the pass leaves zeroed: */
+  hv_grad_tally_t *grads;   /* one per tally slot (batches.h) */
+  hv_grad_tally_t *emitter; /* the current emitter's partial gradient */
+  double *total;            /* Σ over emitters, per voxel entry (3 blocks) */
   /* For standard errors only: the current emitter's batch means pulled
    * back to π (the current one, their sum and sum of squares), and per π
    * entry the sum over finished emitters of their squared errors. */
@@ -107,7 +109,7 @@ static bool records_well_formed(const gradient_t *g, const double *rec, size_t c
 /* The current emitter is complete: its record joins `records` and its
  * accumulators are reset. One rank adds the record at once. */
 static void finish_emitter(gradient_t *g) {
-  hv_grad_tally_t *em = &g->emitter;
+  hv_grad_tally_t *em = g->emitter;
   hv_record_t *rec = &g->records;
   if (hv_record_reserve(rec, 1 + 4 * em->touched_count)) {
     hv_record_put(rec, (double)em->touched_count);
@@ -167,33 +169,14 @@ static void reduce_item(void *self, int64_t item, int slot) {
       g->mean_sq[i] += m * m;
     }
   }
-  drain(g, gt, &g->emitter);
+  drain(g, gt, g->emitter);
   if (b + 1 == pass->batches) finish_emitter(g);
 }
 
-static bool alloc_grad_tally(const hetinv_context_t *ctx, size_t voxels, hv_grad_tally_t *gt) {
-  gt->voxels = voxels;
-  gt->grad = hv_calloc_apart(ctx, 3 * voxels, sizeof(double));
-  gt->touched = hv_calloc_apart(ctx, voxels, 1);
-  gt->touched_list = hv_calloc_apart(ctx, voxels, sizeof(int64_t));
-  gt->path.ctx = gt->chain.ctx = ctx;
-  return gt->grad && gt->touched && gt->touched_list;
-}
-
-static void free_grad_tally(const hetinv_context_t *ctx, hv_grad_tally_t *gt) {
-  hv_free(ctx, gt->grad);
-  hv_free(ctx, gt->touched);
-  hv_free(ctx, gt->touched_list);
-  hv_path_log_release(&gt->path);
-  hv_path_log_release(&gt->chain);
-}
-
-static void release(const hetinv_context_t *ctx, gradient_t *g, int slots) {
-  for (int t = 0; g->grads && t < slots; ++t) free_grad_tally(ctx, &g->grads[t]);
-  free_grad_tally(ctx, &g->emitter);
+/* A pass that failed part-way leaves scratch entries set: it is dropped. */
+static void release(const hetinv_context_t *ctx, gradient_t *g, hv_grad_scratch_t *scratch, bool failed) {
+  if (failed) hv_grad_scratch_release(ctx, scratch);
   hv_free(ctx, g->tallies);
-  hv_free(ctx, g->grads);
-  hv_free(ctx, g->total);
   hv_free(ctx, g->pi_batch);
   hv_free(ctx, g->mean_sum);
   hv_free(ctx, g->mean_sq);
@@ -228,10 +211,15 @@ hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t 
   /* Per slot: 3 doubles, a byte and an index per voxel (hv_grad_tally_t). */
   int threads, slots = hv_pass_slot_count(pass, g.voxels * (3 * sizeof(double) + 1 + sizeof(int64_t)),
                                           &threads);
+  hv_grad_scratch_t *scratch = pass->grad_scratch;
   g.tallies = hv_calloc(ctx, (size_t)slots, sizeof *g.tallies);
-  g.grads = hv_calloc(ctx, (size_t)slots, sizeof *g.grads);
-  g.total = hv_calloc(ctx, 3 * g.voxels, sizeof(double));
-  bool ok = g.tallies && g.grads && g.total && alloc_grad_tally(ctx, g.voxels, &g.emitter);
+  bool ok = g.tallies && hv_grad_scratch_take(ctx, scratch, g.voxels, slots);
+  if (ok) {
+    g.grads = scratch->grads;
+    g.emitter = &scratch->emitter;
+    g.total = scratch->total;
+    memset(g.total, 0, 3 * g.voxels * sizeof(double));
+  }
   if (ok && grad_se) {
     g.pi_batch = hv_calloc(ctx, g.k, sizeof(double));
     g.mean_sum = hv_calloc(ctx, g.k, sizeof(double));
@@ -240,7 +228,6 @@ hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t 
     ok = g.pi_batch && g.mean_sum && g.mean_sq && g.var;
   }
   for (int t = 0; ok && t < slots; ++t) {
-    ok = alloc_grad_tally(ctx, g.voxels, &g.grads[t]);
     g.grads[t].cotangent = cotangent;
     g.tallies[t].grad = &g.grads[t];
   }
@@ -261,7 +248,7 @@ hetinv_result_t hv_gradient_run(const hv_pass_t *pass, const hetinv_param_map_t 
       if (grad_se) grad_se[i] = sqrt(g.var[i]);
     }
   }
-  release(ctx, &g, slots);
+  release(ctx, &g, scratch, r != HETINV_SUCCESS);
   return r;
 }
 

@@ -71,7 +71,7 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
                    geo.eta_out, set->geo.lo[0], set->geo.hi[0], set->geo.lo[1], set->geo.hi[1],
                    set->geo.lo[2], set->geo.hi[2], set->geo.eta, set->geo.eta_out);
   }
-  *pass = (hv_pass_t){.ctx = ctx, .start_seconds = hv_now_seconds()};
+  *pass = (hv_pass_t){.ctx = ctx, .start_seconds = hv_now_seconds(), .grad_scratch = est->grad_scratch};
   hetinv_result_t r = hv_grid_build(medium, &pass->grid);
   if (r != HETINV_SUCCESS) return r;
   r = hv_plans_build(set, &pass->plans);

@@ -21,6 +21,7 @@ typedef struct hv_pass {
    * emitter_hi) of plans.count; with ranks == 1 that is all of them. */
   int32_t rank, ranks;
   int32_t emitter_lo, emitter_hi;
+  struct hv_grad_scratch *grad_scratch; /* the estimator's (grad_scratch.h) */
 } hv_pass_t;
 
 /* Validates (estimator, medium, set, count) and builds the pass; on failure
