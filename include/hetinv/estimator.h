@@ -25,6 +25,11 @@
  * ranks (hetinv_context_rank_count() > 1), render, gradient and
  * loss_gradient are collective: every rank makes the same calls with the
  * same arguments and receives the same results.
+ *
+ * Memory: after a gradient pass the estimator keeps that pass's per-voxel
+ * scratch (about 33 bytes per voxel per thread, plus 57 per voxel) for the
+ * next one on a grid of the same size, which then allocates and clears
+ * nothing of that size; hetinv_estimator_destroy() frees it.
  */
 #ifndef HETINV_ESTIMATOR_H
 #define HETINV_ESTIMATOR_H
