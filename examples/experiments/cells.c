@@ -1,6 +1,7 @@
 /* Finished experiment cells as small CSV files (cells.h). */
 #include "cells.h"
 
+#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -199,4 +200,43 @@ int experiment_bound_store(const char *dir, const char *key, const experiment_bo
   fprintf(f, "positive_definite,%d\nlocal_radius,%d\nseconds,%.3f\n", (int)b->positive_definite,
           (int)b->local_radius, b->seconds);
   return recon_text_commit(f, tmp, path);
+}
+
+/* from/name into dir/name, written whole and renamed (recon_text_begin:
+ * the bytes of any file). A missing source is no error: a bound's maps
+ * are optional. */
+static int copy_into(const char *dir, const char *from, const char *name) {
+  char src[1200], dst[1200], tmp[1220];
+  snprintf(src, sizeof src, "%s/%s", from, name);
+  snprintf(dst, sizeof dst, "%s/%s", dir, name);
+  FILE *in = fopen(src, "rb");
+  if (in == NULL) return errno == ENOENT ? 0 : -1;
+  FILE *out = recon_text_begin(dst, tmp, sizeof tmp);
+  if (out == NULL) {
+    fclose(in);
+    return -1;
+  }
+  char buf[65536];
+  size_t n;
+  bool ok = true;
+  while (ok && (n = fread(buf, 1, sizeof buf, in)) > 0) ok = fwrite(buf, 1, n, out) == n;
+  ok = ok && !ferror(in);
+  fclose(in);
+  if (!ok) {
+    fclose(out);
+    remove(tmp);
+    errno = EIO;
+    return -1;
+  }
+  return recon_text_commit(out, tmp, dst);
+}
+
+int experiment_bound_adopt(const char *dir, const char *from, const char *key, experiment_bound_t *b) {
+  if (!experiment_bound_load(from, key, b)) return 0;
+  static const char *const MAPS[] = {"bound.exr", "bound_sigma_a.png", "bound_sigma_s.png", "bound_g.png"};
+  for (size_t i = 0; i < sizeof MAPS / sizeof MAPS[0]; ++i) {
+    if (copy_into(dir, from, MAPS[i]) != 0) return -1;
+  }
+  /* bound.csv last: once it is there, the maps it describes are too. */
+  return experiment_bound_store(dir, key, b) == 0 ? 1 : -1;
 }

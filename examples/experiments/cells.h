@@ -46,4 +46,11 @@ void experiment_bound_key(const recon_scene_t *scene, int64_t photons, int32_t r
 bool experiment_bound_load(const char *dir, const char *key, experiment_bound_t *bound);
 int experiment_bound_store(const char *dir, const char *key, const experiment_bound_t *bound);
 
+/* A bound stored for the same data in another folder `from` (a cell
+ * folder of another run): loaded, and its bound.csv, bound.exr and
+ * bound_*.png copied into `dir` (each written whole, then renamed), so
+ * the cell reads it back from then on. False if `from` holds no bound
+ * under this key; -1 with errno on a failed copy. */
+int experiment_bound_adopt(const char *dir, const char *from, const char *key, experiment_bound_t *bound);
+
 #endif

@@ -14,7 +14,7 @@
  *               [--coordinates native|reduced|log] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
- *               [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]
+ *               [--bound-replicates N] [--bound-from DIR] [--init-truth] [--fit-check] [--fit-photons N]
  *               [--fit-replicates N]
  *
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
@@ -50,7 +50,11 @@
  * (error far above it); --bound-only computes the bounds alone. Stored in
  * bound.csv and read back like the cells. --bound-photons (default: the
  * scene's photons per emitter) and --bound-replicates (default 4) set its
- * Monte Carlo budget. With --bound a last table (fig4_target.csv) checks
+ * Monte Carlo budget. --bound-from DIR takes a cell's bound from the same
+ * cell of another run's folder DIR when it was computed for the same data
+ * (its key: the data's settings, the bound's photons and replicates, not
+ * the optimizer's), copying it in, so another optimizer setting is set
+ * against it at no cost. With --bound a last table (fig4_target.csv) checks
  * the issue's target voxel by voxel: each voxel within 15 %, or within
  * 1.5× its own bound where that bound exceeds 15 % (verdict.c); a voxel
  * that misses both is the optimizer's miss, not the data's.
@@ -136,7 +140,7 @@ static int usage(const char *what) {
           "                   [--coordinates native|reduced|log] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
-          "                   [--bound-replicates N] [--init-truth] [--fit-check] [--fit-photons N]\n"
+          "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--fit-check] [--fit-photons N]\n"
           "                   [--fit-replicates N]\n",
           what);
   return 2;
@@ -518,10 +522,23 @@ static int bound_cell(const recon_scene_t *sc, int64_t threads, int64_t photons,
 /* A cell's bound: read back from its bound.csv if an earlier run stored
  * it with these settings, else computed (bound_cell) and stored. */
 static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photons, int32_t replicates, bool quiet,
-                        experiment_bound_t *b) {
+                        const char *bound_from, experiment_bound_t *b) {
   char key[1200];
   experiment_bound_key(sc, photons, replicates, key, sizeof key);
-  if (experiment_bound_load(sc->output, key, b)) {
+  bool stored = experiment_bound_load(sc->output, key, b);
+  if (!stored && bound_from != NULL) {
+    /* The same cell's folder in the other run: config<c>_volume<v>. */
+    const char *cell = strrchr(sc->output, '/');
+    char from[1200];
+    snprintf(from, sizeof from, "%s/%s", bound_from, cell ? cell + 1 : sc->output);
+    int adopted = experiment_bound_adopt(sc->output, from, key, b);
+    if (adopted < 0) {
+      fprintf(stderr, "hetinv-fig4: %s: copying its bound into %s: %s\n", from, sc->output, strerror(errno));
+      return 1;
+    }
+    stored = adopted == 1;
+  }
+  if (stored) {
     if (!quiet) {
       bool local = !b->positive_definite && b->local_radius >= 0;
       const double *mean = local ? b->local_mean : b->mean, *max = local ? b->local_max : b->max;
@@ -542,6 +559,7 @@ static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photon
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
   bool bound = false, bound_only = false, init_truth = false, fit = false, independent_errors = false;
+  const char *bound_from = NULL;
   bool pooled_errors = false, residual_weights = false;
   int64_t first_volume = 0, volumes = -1, iterations = -1, photons = -1, minibatch = -1, grid = -1, threads = -1;
   int64_t truth_photons = -1;
@@ -573,6 +591,10 @@ int main(int argc, char **argv) {
       ++i;
     } else if (strcmp(a, "--bound") == 0) {
       bound = true;
+    } else if (strcmp(a, "--bound-from") == 0) {
+      if (next == NULL) return usage("--bound-from needs the output folder of another run");
+      bound_from = next;
+      ++i;
     } else if (strcmp(a, "--bound-only") == 0) {
       bound_only = true;
     } else if (strcmp(a, "--bound-photons") == 0) {
@@ -724,7 +746,7 @@ int main(int argc, char **argv) {
       if (bound || bound_only) {
         experiment_bound_t b;
         if (stored_bound(&sc, threads, bound_photons > 0 ? bound_photons : sc.photons, (int32_t)bound_replicates,
-                         quiet, &b) != 0) {
+                         quiet, bound_from, &b) != 0) {
           return 1;
         }
         /* Where F̂ is not positive definite, the local bound stands in
