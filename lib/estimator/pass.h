@@ -22,6 +22,11 @@ typedef struct hv_pass {
   int32_t rank, ranks;
   int32_t emitter_lo, emitter_hi;
   struct hv_grad_scratch *grad_scratch; /* the estimator's (grad_scratch.h) */
+  /* Threads 1 .. grid_copy_count trace in their own copy of the grid's
+   * per-voxel arrays (pass.c: copy_grid_per_thread); the others in grid. */
+  hv_grid_t *grid_copies;
+  int grid_copy_count;
+  bool *grid_copy_filled; /* copy i is filled by its thread on first use */
 } hv_pass_t;
 
 /* Validates (estimator, medium, set, count) and builds the pass; on failure

@@ -1,5 +1,7 @@
 #include "transport/grid.h"
 
+#include <string.h>
+
 #include "core/alloc.h"
 #include "core/error.h"
 #include "medium/medium_internal.h"
@@ -107,6 +109,36 @@ void hv_grid_release(hv_grid_t *grid) {
   grid->face_storage = NULL;
   grid->axis_depth_storage = NULL;
   for (int f = 0; f < 6; ++f) grid->axis_depth[f] = NULL;
+}
+
+size_t hv_grid_voxel_bytes(const hv_grid_t *g) {
+  size_t n = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2];
+  return n * (sizeof *g->voxel + (g->sigma_t_q ? 1 : 0));
+}
+
+bool hv_grid_copy_alloc(const hv_grid_t *g, hv_grid_t *copy) {
+  size_t n = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2];
+  *copy = *g;
+  copy->voxel = hv_alloc(g->ctx, n * sizeof *g->voxel);
+  copy->sigma_t_q = g->sigma_t_q ? hv_alloc(g->ctx, n) : NULL;
+  if (copy->voxel == NULL || (g->sigma_t_q && copy->sigma_t_q == NULL)) {
+    hv_grid_release_copy(copy);
+    return false;
+  }
+  return true;
+}
+
+void hv_grid_copy_fill(const hv_grid_t *g, hv_grid_t *copy) {
+  size_t n = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2];
+  memcpy(copy->voxel, g->voxel, n * sizeof *g->voxel);
+  if (g->sigma_t_q) memcpy(copy->sigma_t_q, g->sigma_t_q, n);
+}
+
+void hv_grid_release_copy(hv_grid_t *copy) {
+  hv_free(copy->ctx, copy->voxel);
+  hv_free(copy->ctx, copy->sigma_t_q);
+  copy->voxel = NULL;
+  copy->sigma_t_q = NULL;
 }
 
 /* One table: along axis a toward its face `up`, each line of voxels summed

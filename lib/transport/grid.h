@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "core/compiler.h"
@@ -66,6 +67,20 @@ typedef struct hv_grid {
 /* Builds the grid of a committed medium; release with hv_grid_release. */
 hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out);
 void hv_grid_release(hv_grid_t *grid);
+
+/* A copy of g whose per-voxel records and acceptance bytes are its own,
+ * everything else shared with g, for one thread to read: two cores
+ * reading the same lines of arrays larger than their caches serve each
+ * other's misses (docs/results/kernel.md). hv_grid_copy_alloc allocates
+ * them (false if memory ran out); hv_grid_copy_fill copies g's values in,
+ * on the thread that will read them, so that its pages are first touched
+ * there and the copies are made in parallel. Release with
+ * hv_grid_release_copy, before g. */
+bool hv_grid_copy_alloc(const hv_grid_t *g, hv_grid_t *copy);
+void hv_grid_copy_fill(const hv_grid_t *g, hv_grid_t *copy);
+void hv_grid_release_copy(hv_grid_t *copy);
+/* The bytes hv_grid_copy_voxels allocates. */
+size_t hv_grid_voxel_bytes(const hv_grid_t *g);
 
 /* Builds axis_depth[f] for every face f in the bit mask `faces` (bit f);
  * 8 bytes per voxel each. A uniform grid needs none (its walks are one
