@@ -29,7 +29,11 @@
  * Memory: after a gradient pass the estimator keeps that pass's per-voxel
  * scratch (about 33 bytes per voxel per thread, plus 57 per voxel) for the
  * next one on a grid of the same size, which then allocates and clears
- * nothing of that size; hetinv_estimator_destroy() frees it.
+ * nothing of that size; hetinv_estimator_destroy() frees it. While a call
+ * runs on several threads, each thread but the first reads its own copy
+ * of the grid's per-voxel records (33 bytes per voxel) when they exceed
+ * 1 MB, up to 1 GB of copies: two cores reading one large array served
+ * each other's cache misses.
  */
 #ifndef HETINV_ESTIMATOR_H
 #define HETINV_ESTIMATOR_H
