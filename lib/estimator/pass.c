@@ -58,6 +58,7 @@ static uint32_t axis_walks(const hv_plans_t *plans) {
 #define HV_COPY_BUDGET ((size_t)1 << 30)
 
 static void copy_grid_per_thread(hv_pass_t *pass) {
+#ifdef _OPENMP
   size_t bytes = hv_grid_voxel_bytes(&pass->grid);
   int copies = pass->threads - 1;
   if (pass->grid.uniform || copies < 1 || bytes < HV_COPY_MIN_BYTES || bytes > HV_COPY_BUDGET / (size_t)copies) {
@@ -70,6 +71,9 @@ static void copy_grid_per_thread(hv_pass_t *pass) {
          hv_grid_copy_alloc(&pass->grid, &pass->grid_copies[pass->grid_copy_count])) {
     ++pass->grid_copy_count;
   }
+#else
+  (void)pass; /* without OpenMP one thread traces every batch */
+#endif
 }
 
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
