@@ -79,7 +79,7 @@ void hv_grid_release(hv_grid_t *grid);
 bool hv_grid_copy_alloc(const hv_grid_t *g, hv_grid_t *copy);
 void hv_grid_copy_fill(const hv_grid_t *g, hv_grid_t *copy);
 void hv_grid_release_copy(hv_grid_t *copy);
-/* The bytes hv_grid_copy_voxels allocates. */
+/* The bytes hv_grid_copy_alloc allocates. */
 size_t hv_grid_voxel_bytes(const hv_grid_t *g);
 
 /* Builds axis_depth[f] for every face f in the bit mask `faces` (bit f);
