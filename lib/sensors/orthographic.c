@@ -50,7 +50,28 @@ typedef struct ortho {
    * vertex's place on the face (its other coordinates), so the vertex's
    * pixel is known before any walk. */
   bool normal;
+  /* The pixels' extent from origin along the face's two axes, shrunk and
+   * grown by a relative 1e-12: a vertex offset inside the first is on a
+   * pixel, one outside the second on none, whatever the division in
+   * hv_sensor_pixel_at rounds to (covers()). */
+  double inside[2], outside[2];
 } ortho_t;
+
+/* hv_sensor_pixel_at(s, p) >= 0, exactly, without its two divisions
+ * unless p lies within 1e-12 of the pixels' edge: the early test of every
+ * connection, where the divisions were 2 % of a reconstruction's
+ * iteration (docs/results/kernel.md). */
+static inline bool covers(const hetinv_sensor_t *s, const ortho_t *o, const double p[3]) {
+  int au, av;
+  hv_face_uv_axes(s->face, &au, &av);
+  double u = p[au] - s->origin[0], v = p[av] - s->origin[1];
+  if (u >= 0.0 && v >= 0.0 && u <= o->inside[0] && v <= o->inside[1]) return true;
+  if (u < -1e-12 * s->pixel_size[0] || v < -1e-12 * s->pixel_size[1] || u > o->outside[0] ||
+      v > o->outside[1]) {
+    return false;
+  }
+  return hv_sensor_pixel_at(s, p) >= 0;
+}
 
 /* Per (emitter, sensor): the Fresnel reflectance of dir_in at the faces of
  * each axis, which every specular chain multiplies by. */
@@ -79,7 +100,7 @@ static void at_vertex(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sen
   /* A vertex outside the pixels of a camera that looks along the normal
    * cannot reach it by any chain: no walk, no draw. A probe of a few
    * pixels is missed by nearly every vertex. */
-  if (o->normal && hv_sensor_pixel_at(s, vertex->p) < 0) return;
+  if (o->normal && !covers(s, o, vertex->p)) return;
   hv_grad_tally_t *gt = tally->grad;
   hv_path_log_t *chain = gt ? &gt->chain : NULL;
   bool matched = grid->eta == grid->eta_out; /* no reflections: the direct chain only */
@@ -251,7 +272,13 @@ HETINV_API hetinv_result_t hetinv_sensor_create_orthographic(
   s->width = width;
   s->height = height;
   s->images = true;
-  r = set_direction(s, s->data, direction);
+  ortho_t *o = s->data;
+  for (int i = 0; i < 2; ++i) {
+    double extent = (i == 0 ? width : height) * pixel_size[i];
+    o->inside[i] = extent * (1.0 - 1e-12);
+    o->outside[i] = extent * (1.0 + 1e-12);
+  }
+  r = set_direction(s, o, direction);
   if (r != HETINV_SUCCESS) {
     hetinv_sensor_destroy(&s);
     return r;
