@@ -11,7 +11,7 @@
  *               [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]
  *               [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--truth-photons N]
- *               [--coordinates native|reduced|log] [--grid N] [--scale S]
+ *               [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-from DIR] [--init-truth] [--fit-check] [--fit-photons N]
@@ -93,7 +93,9 @@
  * --decay D its running means'
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
  * as (σs(1 − g), g), --coordinates log (the default, the built-in
- * scene's) each value with a positive box in ln π (optimizer.coordinates). --min-snr S leaves out of
+ * scene's) each value with a positive box in ln π, --coordinates
+ * log-reduced both: σs and g as (ln σs(1 − g), g), the rest in ln π
+ * (optimizer.coordinates). --min-snr S leaves out of
  * the loss and the bound every value whose standard error exceeds
  * value/S (acquisition.min_snr of hetinv-reconstruct; default 3, 0 keeps
  * every value).
@@ -137,7 +139,7 @@ static int usage(const char *what) {
           "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]\n"
           "                   [--residual-weights]\n"
           "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"
-          "                   [--coordinates native|reduced|log] [--grid N] [--scale S]\n"
+          "                   [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--fit-check] [--fit-photons N]\n"

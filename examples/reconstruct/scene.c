@@ -14,7 +14,7 @@ static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
 /* The JSON names of the enums, in their order (preset.c writes them). */
 const char *const recon_weighting_names[] = {"variance", "relative", "uniform", "residual", NULL};
 const char *const recon_method_names[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
-const char *const recon_coordinate_names[] = {"native", "reduced", "log", NULL};
+const char *const recon_coordinate_names[] = {"native", "reduced", "log", "log-reduced", NULL};
 
 void recon_scene_default(recon_scene_t *sc) {
   memset(sc, 0, sizeof *sc);

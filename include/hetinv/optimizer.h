@@ -163,7 +163,14 @@ enum hetinv_coordinates_id {
    *  top. Other entries move natively. The result, bounds, averaging and π
    *  stay native. Added in 0.3. */
   HETINV_COORDINATES_LOG = 2,
-  HETINV_COORDINATES_COUNT_ = 3 /**< not a value: one past the last */
+  /** HETINV_COORDINATES_LOG and HETINV_COORDINATES_REDUCED together: where a
+   *  cell's σs and g are both free they move as (ln σs', g), σs' = σs(1 − g),
+   *  so a step changes the reduced scattering by a factor and the valley of
+   *  steady light lies along g; every other entry with a positive bounded
+   *  box moves in ln π. The result, bounds, averaging and π stay native.
+   *  Added in 0.3. */
+  HETINV_COORDINATES_LOG_REDUCED = 3,
+  HETINV_COORDINATES_COUNT_ = 4 /**< not a value: one past the last */
 };
 
 /** Why a run ended: a value of enum hetinv_stop_reason_id. */

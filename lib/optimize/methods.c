@@ -13,7 +13,10 @@
  * steps settle at about ε times the scale, which natively is the box's
  * width, the same absolute size for a value at the box's floor as at its
  * top, so values near the floor wander furthest in relative terms (Fig. 4's
- * worst voxels at full size). In ln π the wander is relative. */
+ * worst voxels at full size). In ln π the wander is relative.
+ *
+ * HETINV_COORDINATES_LOG_REDUCED is both: a pair moves in (ln σs', g), every
+ * other entry as under HETINV_COORDINATES_LOG. */
 #include <math.h>
 
 #include "optimize/optimizer_internal.h"
@@ -83,6 +86,24 @@ static void reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, s
   opt->pi[j] = g_new;
 }
 
+/* reduced_step in (u = ln σs', g) where σs's box is positive and bounded
+ * (else reduced_step): σs = e^u / (1 − g), so ∂L/∂u = ∂L/∂σs · σs and
+ * ∂L/∂g|u = ∂L/∂g + ∂L/∂σs · σs / (1 − g), the same as in (σs', g); u's
+ * scale is ln(hi/lo) of σs's box. Returns u's move (for the step's RMS,
+ * in units of that scale) through *du_scaled. */
+static void log_reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, size_t j,
+                             double *du_scaled, double *dj) {
+  double su = log_scale(opt, i);
+  double s = opt->pi[i], g = opt->pi[j], q = 1.0 - g;
+  double gu = opt->grad[i] * s, gg = opt->grad[j] + opt->grad[i] * s / q;
+  double du = delta_at(m, opt, i, gu, su), dg = delta(m, opt, j, gg);
+  double g_new = clamp(g - dg, opt->lo_k[j], opt->hi_k[j]);
+  opt->pi[i] = clamp(s * q * exp(-du) / (1.0 - g_new), opt->lo_k[i], opt->hi_k[i]);
+  opt->pi[j] = g_new;
+  *du_scaled = du / su;
+  *dj = g - g_new;
+}
+
 double hv_stage_epsilon(const hetinv_optimizer_t *opt) {
   const double end = opt->param[HETINV_OPTIMIZER_EPSILON];
   const hv_stage_t *st = &opt->stages[opt->stage];
@@ -102,15 +123,22 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
   method_t m = {(int)par[HETINV_OPTIMIZER_METHOD], par[HETINV_OPTIMIZER_DECAY],
                 epsilon,
                 par[HETINV_OPTIMIZER_LEARNING_RATE], b1, b2, 1.0 - pow(b1, t), 1.0 - pow(b2, t)};
-  bool reduced = par[HETINV_OPTIMIZER_COORDINATES] == HETINV_COORDINATES_REDUCED;
-  bool logs = par[HETINV_OPTIMIZER_COORDINATES] == HETINV_COORDINATES_LOG;
+  int coordinates = (int)par[HETINV_OPTIMIZER_COORDINATES];
+  bool reduced = coordinates == HETINV_COORDINATES_REDUCED || coordinates == HETINV_COORDINATES_LOG_REDUCED;
+  bool logs = coordinates == HETINV_COORDINATES_LOG || coordinates == HETINV_COORDINATES_LOG_REDUCED;
   double sq = 0.0;
   size_t moved = 0;
   for (size_t i = 0; i < opt->k; ++i) {
     if ((frozen && frozen[i]) || (reduced && opt->pair_of_g[i] >= 0)) continue;
     int64_t j = reduced ? opt->pair_of_sigma_s[i] : -1;
     double d = 0.0, s = 0.0;
-    if (j >= 0) {
+    if (j >= 0 && logs && log_scale(opt, i) > 0.0) {
+      double du = 0.0, dj = 0.0;
+      log_reduced_step(&m, opt, i, (size_t)j, &du, &dj);
+      sq += du * du + (dj / opt->scale[j]) * (dj / opt->scale[j]);
+      moved += 2;
+      continue;
+    } else if (j >= 0) {
       double dj = 0.0;
       reduced_step(&m, opt, i, (size_t)j, &d, &dj);
       sq += (dj / opt->scale[j]) * (dj / opt->scale[j]);

@@ -134,6 +134,8 @@ class Configuration(unittest.TestCase):
             self.assertEqual(opt.get_param("coordinates"), hetinv.COORDINATES_REDUCED)
             opt.set_param("coordinates", "log")
             self.assertEqual(opt.get_param("coordinates"), hetinv.COORDINATES_LOG)
+            opt.set_param("coordinates", "log-reduced")
+            self.assertEqual(opt.get_param("coordinates"), hetinv.COORDINATES_LOG_REDUCED)
             with self.assertRaisesRegex(ValueError, "unknown coordinates"):
                 opt.set_param("coordinates", "polar")
             opt.set_param("coordinates", "native")

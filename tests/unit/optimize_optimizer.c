@@ -692,6 +692,49 @@ static void log_coordinates_step_by_a_factor(void **state) {
   assert_true(h.pi[0] == 1.0);
 }
 
+/* Log-reduced coordinates: σs (entry 0) and g (entry 2) of one cell step
+ * as (u = ln σs(1 − g), g), entry 1 (box [1, 10]) in ln π. SGD:
+ * δu = rate·su²·(σs·∂L/∂σs), su = ln 10; δg = rate·1.98²·(∂L/∂g + ∂L/∂σs·σs/(1 − g)). */
+static void log_reduced_coordinates_step_by_the_chain_rule(void **state) {
+  (void)state;
+  hand_t h;
+  hand_init(&h, HETINV_METHOD_SGD);
+  int64_t pair_of_sigma_s[3] = {2, -1, -1}, pair_of_g[3] = {-1, -1, 0};
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_REDUCED;
+  h.opt.pair_of_sigma_s = pair_of_sigma_s;
+  h.opt.pair_of_g = pair_of_g;
+  h.grad[0] = 0.01, h.grad[1] = 0.001, h.grad[2] = 0.02;
+  double su = log(10.0);
+  double du = 0.1 * su * su * (5 * 0.01), dg = 0.1 * 1.98 * 1.98 * (0.02 + 0.01 * 5 / 0.8);
+  double du1 = 0.1 * su * su * (5 * 0.001);
+  double g_new = 0.2 - dg;
+  double rms = hv_method_step(&h.opt, NULL, 0.01);
+  assert_close(h.pi[2], g_new, 1e-14);
+  /* σs(1 − g) moved by exactly the factor e^(-δu). */
+  assert_close(h.pi[0] * (1 - h.pi[2]), 5 * 0.8 * exp(-du), 1e-14);
+  assert_close(h.pi[1], 5 * exp(-du1), 1e-14);
+  double d0 = du / su, d1 = du1 / su, d2 = dg / 1.98;
+  assert_close(rms, sqrt((d0 * d0 + d1 * d1 + d2 * d2) / 3), 1e-14);
+  /* The projection: g stops at its bound, σs at its box's top. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_REDUCED;
+  h.opt.pair_of_sigma_s = pair_of_sigma_s;
+  h.opt.pair_of_g = pair_of_g;
+  h.grad[0] = -1, h.grad[2] = -10;
+  hv_method_step(&h.opt, NULL, 0.01);
+  assert_true(h.pi[2] == 0.99 && h.pi[0] == 10);
+  /* A σs box that is not positive steps as in reduced coordinates. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_REDUCED;
+  h.opt.pair_of_sigma_s = pair_of_sigma_s;
+  h.opt.pair_of_g = pair_of_g;
+  h.lo[0] = 0.0;
+  h.grad[0] = 0.01, h.grad[2] = 0.02;
+  double dr = 0.1 * 81 * (0.01 / 0.8);
+  hv_method_step(&h.opt, NULL, 0.01);
+  assert_close(h.pi[0] * (1 - h.pi[2]), 5 * 0.8 - dr, 1e-14);
+}
+
 /* ------------------------------------------------------------------------ */
 /* 2. Every method lowers the loss: σs of a uniform medium from 8 toward 3. */
 
@@ -2086,6 +2129,7 @@ int main(void) {
       cmocka_unit_test(other_methods_step_as_documented),
       cmocka_unit_test(reduced_coordinates_step_by_the_chain_rule),
       cmocka_unit_test(log_coordinates_step_by_a_factor),
+      cmocka_unit_test(log_reduced_coordinates_step_by_the_chain_rule),
       cmocka_unit_test(every_method_moves_sigma_s_toward_the_truth),
       cmocka_unit_test(iterates_never_leave_the_box),
       cmocka_unit_test(frozen_entries_never_move),
