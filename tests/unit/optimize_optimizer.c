@@ -520,6 +520,16 @@ static void hand_init(hand_t *h, int method) {
   memcpy(h->hi, hi, sizeof hi);
 }
 
+/* hand_init, with entries 0 (σs) and 2 (g) one cell's pair, stepping in
+ * `coordinates`. */
+static int64_t hand_pair_of_sigma_s[3] = {2, -1, -1}, hand_pair_of_g[3] = {-1, -1, 0};
+static void hand_init_pair(hand_t *h, int method, int coordinates) {
+  hand_init(h, method);
+  h->opt.param[HETINV_OPTIMIZER_COORDINATES] = coordinates;
+  h->opt.pair_of_sigma_s = hand_pair_of_sigma_s;
+  h->opt.pair_of_g = hand_pair_of_g;
+}
+
 static void adadelta_steps_match_hand_computation(void **state) {
   (void)state;
   hand_t h;
@@ -619,11 +629,7 @@ static void other_methods_step_as_documented(void **state) {
 static void reduced_coordinates_step_by_the_chain_rule(void **state) {
   (void)state;
   hand_t h;
-  hand_init(&h, HETINV_METHOD_SGD);
-  int64_t pair_of_sigma_s[3] = {2, -1, -1}, pair_of_g[3] = {-1, -1, 0};
-  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_REDUCED;
-  h.opt.pair_of_sigma_s = pair_of_sigma_s;
-  h.opt.pair_of_g = pair_of_g;
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_REDUCED);
   h.grad[0] = 0.01, h.grad[1] = 0.001, h.grad[2] = 0.02;
   /* q = 1 − 0.2 = 0.8; ∂L/∂σs' = 0.01/0.8; ∂L/∂g|σs' = 0.02 + 0.01·5/0.8.
    * SGD: δ = rate·s²·gradient with rate 0.1, s = 9 (σs') and 1.98 (g). */
@@ -639,17 +645,12 @@ static void reduced_coordinates_step_by_the_chain_rule(void **state) {
   assert_close(h.pi[0] * (1 - h.pi[2]), 5 * 0.8 - dr, 1e-14);
   /* The projection: a g step past the box stops at the bound, and σs' is
    * kept inside σs's box. */
-  hand_init(&h, HETINV_METHOD_SGD);
-  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_REDUCED;
-  h.opt.pair_of_sigma_s = pair_of_sigma_s;
-  h.opt.pair_of_g = pair_of_g;
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_REDUCED);
   h.grad[0] = -1, h.grad[2] = -10;
   hv_method_step(&h.opt, NULL, 0.01);
   assert_true(h.pi[2] == 0.99 && h.pi[0] == 10);
   /* Native coordinates ignore the pairs. */
-  hand_init(&h, HETINV_METHOD_SGD);
-  h.opt.pair_of_sigma_s = pair_of_sigma_s;
-  h.opt.pair_of_g = pair_of_g;
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_NATIVE);
   h.grad[0] = 0.01, h.grad[2] = 0.02;
   hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[0], 5 - 0.1 * 81 * 0.01, 1e-14);
@@ -698,11 +699,7 @@ static void log_coordinates_step_by_a_factor(void **state) {
 static void log_reduced_coordinates_step_by_the_chain_rule(void **state) {
   (void)state;
   hand_t h;
-  hand_init(&h, HETINV_METHOD_SGD);
-  int64_t pair_of_sigma_s[3] = {2, -1, -1}, pair_of_g[3] = {-1, -1, 0};
-  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_REDUCED;
-  h.opt.pair_of_sigma_s = pair_of_sigma_s;
-  h.opt.pair_of_g = pair_of_g;
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_LOG_REDUCED);
   h.grad[0] = 0.01, h.grad[1] = 0.001, h.grad[2] = 0.02;
   double su = log(10.0);
   double du = 0.1 * su * su * (5 * 0.01), dg = 0.1 * 1.98 * 1.98 * (0.02 + 0.01 * 5 / 0.8);
@@ -716,18 +713,12 @@ static void log_reduced_coordinates_step_by_the_chain_rule(void **state) {
   double d0 = du / su, d1 = du1 / su, d2 = dg / 1.98;
   assert_close(rms, sqrt((d0 * d0 + d1 * d1 + d2 * d2) / 3), 1e-14);
   /* The projection: g stops at its bound, σs at its box's top. */
-  hand_init(&h, HETINV_METHOD_SGD);
-  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_REDUCED;
-  h.opt.pair_of_sigma_s = pair_of_sigma_s;
-  h.opt.pair_of_g = pair_of_g;
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_LOG_REDUCED);
   h.grad[0] = -1, h.grad[2] = -10;
   hv_method_step(&h.opt, NULL, 0.01);
   assert_true(h.pi[2] == 0.99 && h.pi[0] == 10);
   /* A σs box that is not positive steps as in reduced coordinates. */
-  hand_init(&h, HETINV_METHOD_SGD);
-  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_REDUCED;
-  h.opt.pair_of_sigma_s = pair_of_sigma_s;
-  h.opt.pair_of_g = pair_of_g;
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_LOG_REDUCED);
   h.lo[0] = 0.0;
   h.grad[0] = 0.01, h.grad[2] = 0.02;
   double dr = 0.1 * 81 * (0.01 / 0.8);
