@@ -126,37 +126,21 @@
 #include <string.h>
 
 #include "cells.h"
+#include "fig4_options.h"
+#include "fig4_tables.h"
 #include "fit_check.h"
 #include "outdir.h"
 #include "recon.h"
 #include "verdict.h"
 
-static int usage(const char *what) {
-  fprintf(stderr,
-          "hetinv-fig4: %s\n"
-          "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
-          "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]\n"
-          "                   [--residual-weights]\n"
-          "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"
-          "                   [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]\n"
-          "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
-          "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
-          "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--fit-check] [--fit-photons N]\n"
-          "                   [--fit-replicates N]\n",
-          what);
-  return 2;
-}
 
-static const char *const CONFIG_NAMES[5] = {"", "(1) pathlength, neighbours", "(2) steady state",
-                                             "(3) pathlength, orientations", "(4) (1) + (2) at low SNR"};
 
 /* The scene of configuration c and volume v. */
 static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid, int64_t iterations, int64_t photons,
                        int64_t minibatch, double epsilon, double min_snr, double scale, bool init_truth,
                        const char *out) {
   recon_scene_default(sc);
-  snprintf(sc->name, sizeof sc->name, "Fig. 4 %s, volume %d", CONFIG_NAMES[c], v + 1);
+  snprintf(sc->name, sizeof sc->name, "Fig. 4 %s, volume %d", fig4_config_names[c], v + 1);
   sc->config = (recon_config_t)c;
   sc->truth_seed = (uint64_t)(1000 + v);
   sc->noise_model.seed = (uint64_t)(2000 + v);
@@ -340,140 +324,6 @@ static int print_fit_check(const recon_scene_t *sc, int64_t threads, int64_t pho
   return 0;
 }
 
-/* The table of errors (mean over volumes of the voxel mean / max over
- * volumes of the voxel max), printed and written to DIR/fig4_table.csv. */
-static int error_table(const char *out, bool full, int64_t volumes, const bool configs[5], double mean[5][3],
-                       double max[5][3], const double seconds[5]) {
-  char path[1200];
-  snprintf(path, sizeof path, "%s/fig4_table.csv", out);
-  char tmp[1220];
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
-  printf("\nFig. 4 (%s): relative error over %lld volume(s), mean over volumes of the voxel mean / max over volumes of the voxel max\n",
-         full ? "full size" : "reduced", (long long)volumes);
-  printf("%-30s %15s %15s %15s %9s\n", "configuration", "sigma_a", "sigma_s", "g", "seconds");
-  if (f) fprintf(f, "configuration,sigma_a_mean,sigma_a_max,sigma_s_mean,sigma_s_max,g_mean,g_max,seconds\n");
-  for (int c = 1; c <= 4; ++c) {
-    if (!configs[c]) continue;
-    printf("%-30s", CONFIG_NAMES[c]);
-    for (int p = 0; p < 3; ++p) printf("  %5.1f / %5.1f %%", 100 * mean[c][p], 100 * max[c][p]);
-    printf(" %9.0f\n", seconds[c]);
-    if (f) {
-      fprintf(f, "%d", c);
-      for (int p = 0; p < 3; ++p) fprintf(f, ",%.6f,%.6f", mean[c][p], max[c][p]);
-      fprintf(f, ",%.1f\n", seconds[c]);
-    }
-  }
-  printf("paper (full size): every configuration within 7 %% mean and 15 %% max relative error\n");
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
-    fprintf(stderr, "hetinv-fig4: %s: %s\n", path, strerror(errno));
-    return 1;
-  }
-  printf("table in %s\n", path);
-  return 0;
-}
-
-/* The table of bounds, with achieved/bound (mean error over mean bound)
- * where the errors are known, printed and written to DIR/fig4_bound.csv. */
-static int bound_table(const char *out, int64_t volumes, const bool configs[5], double mean[5][3],
-                       double max[5][3], const int pd[5], const int local[5], const double seconds[5],
-                       double error_mean[5][3]) {
-  char path[1200];
-  snprintf(path, sizeof path, "%s/fig4_bound.csv", out);
-  char tmp[1220];
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
-  printf("\nCramer-Rao bound at the truth: predicted relative standard deviation of an unbiased recovery,\n"
-         "mean over volumes of the voxel mean / max over volumes of the voxel max%s\n",
-         error_mean ? "; then achieved/bound = mean error / mean bound" : "");
-  printf("%-30s %15s %15s %15s %9s%s\n", "configuration", "sigma_a", "sigma_s", "g", "seconds",
-         error_mean ? "   achieved/bound" : "");
-  if (f) {
-    fprintf(f, "configuration,sigma_a_mean,sigma_a_max,sigma_s_mean,sigma_s_max,g_mean,g_max,"
-               "positive_definite_volumes,local_radius,seconds\n");
-  }
-  for (int c = 1; c <= 4; ++c) {
-    if (!configs[c]) continue;
-    printf("%-30s", CONFIG_NAMES[c]);
-    for (int p = 0; p < 3; ++p) printf("  %5.2f / %5.2f %%", 100 * mean[c][p], 100 * max[c][p]);
-    printf(" %9.0f", seconds[c]);
-    for (int p = 0; error_mean && p < 3; ++p) printf(" %5.1f", error_mean[c][p] / mean[c][p]);
-    if (pd[c] < volumes) {
-      printf("  (F not positive definite on %lld volume(s): local bound, radius >= %d)",
-             (long long)(volumes - pd[c]), local[c]);
-    }
-    printf("\n");
-    if (f) {
-      fprintf(f, "%d", c);
-      for (int p = 0; p < 3; ++p) fprintf(f, ",%.6g,%.6g", mean[c][p], max[c][p]);
-      fprintf(f, ",%d,%d,%.1f\n", pd[c], pd[c] < volumes ? local[c] : -1, seconds[c]);
-    }
-  }
-  printf("an efficient unbiased recovery has achieved/bound near 0.8 (E|N(0, s)| = 0.8 s); a local\n"
-         "bound is a lower bound of the bound (the voxels outside its radius known)\n");
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
-    fprintf(stderr, "hetinv-fig4: %s: %s\n", path, strerror(errno));
-    return 1;
-  }
-  printf("bounds in %s\n", path);
-  return 0;
-}
-
-/* The issue's target per configuration and parameter: the mean error
- * within 7 %, or within 1.5× the mean bound where that exceeds 7 %; every
- * voxel likewise against 15 % and its own bound (experiment_verdict_t).
- * Printed and written to DIR/fig4_target.csv. */
-static int target_table(const char *out, const bool configs[5], const bool have[5], double error_mean[5][3],
-                        double bound_mean[5][3], const experiment_verdict_t verdict[5]) {
-  char path[1200], tmp[1220];
-  snprintf(path, sizeof path, "%s/fig4_target.csv", out);
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
-  printf("\nTarget: mean error <= 7 %% and every voxel <= 15 %%, or within %.1fx the bound where the bound\n"
-         "exceeds them; per parameter: mean met?, voxels over 15 %%, of them not within that allowance\n",
-         VERDICT_BOUND_FACTOR);
-  printf("%-30s %20s %20s %20s\n", "configuration", "sigma_a", "sigma_s", "g");
-  if (f) {
-    fprintf(f, "configuration,param,mean_met,voxels,over_15_percent,not_within_bound,efficient_over,"
-               "efficient_not_within,efficient_p_meet_low,efficient_p_meet_high,z_mean,z2_mean,z_max,"
-               "z_max_expected\n");
-  }
-  for (int c = 1; c <= 4; ++c) {
-    if (!configs[c] || !have[c]) continue;
-    printf("%-30s", CONFIG_NAMES[c]);
-    for (int p = 0; p < 3; ++p) {
-      double b = bound_mean[c][p], allowed = b > VERDICT_MEAN_ERROR ? VERDICT_BOUND_FACTOR * b : VERDICT_MEAN_ERROR;
-      bool met = error_mean[c][p] <= allowed;
-      printf("  %4s %5zu / %5zu", met ? "met" : "MISS", verdict[c].over[p], verdict[c].unexplained[p]);
-      if (f) {
-        const experiment_verdict_t *v = &verdict[c];
-        double n = v->voxels[p] > 0 ? (double)v->voxels[p] : (double)NAN;
-        fprintf(f, "%d,%s,%d,%zu,%zu,%zu,%.3f,%.3f,%.4g,%.4g,%.4f,%.4f,%.3f,%.3f\n", c,
-                hetinv_param_name((hetinv_param_t)p), met, v->voxels[p], v->over[p], v->unexplained[p],
-                v->efficient_over[p], v->efficient_unexplained[p], exp(v->efficient_log_meet[p]),
-                1.0 - v->efficient_hardest_miss[p], v->z_sum[p] / n, v->z2_sum[p] / n, v->z_max[p],
-                experiment_expected_max_abs_normal(v->voxels[p]));
-      }
-    }
-    printf("\n");
-  }
-  /* The same counts for a recovery as good as the data allow: if the
-   * achieved ones are near these, the miss is the data's, whatever the
-   * rule's 1.5x allowance says (at ~2000 voxels the largest of efficient
-   * errors is ~3.5 bounds, so a 15 % target fails wherever bounds reach ~4 %). */
-  printf("\nAgainst a recovery as good as the data allow (each voxel's error N(0, bound^2)): voxels over 15 %%\n"
-         "and not within the allowance, achieved / expected; the probability that it meets the target\n"
-         "(between the independent product and the hardest voxel's); z = error / bound: mean, mean square\n"
-         "(1 if efficient), max |z| achieved / expected of as many independent ones\n");
-  for (int c = 1; c <= 4; ++c) {
-    if (!configs[c] || !have[c]) continue;
-    for (int p = 0; p < 3; ++p) experiment_verdict_print_efficient(&verdict[c], p, CONFIG_NAMES[c]);
-  }
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
-    fprintf(stderr, "hetinv-fig4: %s: %s\n", path, strerror(errno));
-    return 1;
-  }
-  printf("targets in %s\n", path);
-  return 0;
-}
-
 /* The bound of one cell at its truth: printed, its maps written in the
  * cell's folder, its summary into *out. */
 static int bound_cell(const recon_scene_t *sc, int64_t threads, int64_t photons, int32_t replicates,
@@ -559,157 +409,13 @@ static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photon
 }
 
 int main(int argc, char **argv) {
-  bool full = false, quiet = false, write_scenes = false, configs[5] = {false, true, true, true, true};
-  bool bound = false, bound_only = false, init_truth = false, fit = false, independent_errors = false;
-  const char *bound_from = NULL;
-  bool pooled_errors = false, residual_weights = false;
-  int64_t first_volume = 0, volumes = -1, iterations = -1, photons = -1, minibatch = -1, grid = -1, threads = -1;
-  int64_t truth_photons = -1;
-  int64_t bound_photons = -1, bound_replicates = 4, fit_photons = 20000, fit_replicates = 4;
-  double scale = -1.0, epsilon = -1.0, min_snr = -1.0;
-  int coordinates = -1;
-  double decay = -1.0, epsilon_start = -1.0;
-  int64_t coarse_window = -1;
-  double loss_clip = -1.0, smoothness = -1.0, multiscale = -1.0;
-  const char *out = "out/fig4";
-  for (int i = 1; i < argc; ++i) {
-    const char *a = argv[i];
-    const char *next = i + 1 < argc ? argv[i + 1] : NULL;
-    if (strcmp(a, "--full") == 0) {
-      full = true;
-    } else if (strcmp(a, "--quiet") == 0) {
-      quiet = true;
-    } else if (strcmp(a, "--write-scenes") == 0) {
-      write_scenes = true;
-    } else if (strcmp(a, "--init-truth") == 0) {
-      init_truth = true;
-    } else if (strcmp(a, "--fit-check") == 0) {
-      fit = true;
-    } else if (strcmp(a, "--fit-photons") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 1, INT64_C(1) << 40, &fit_photons) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--fit-replicates") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 2, 1000, &fit_replicates) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--bound") == 0) {
-      bound = true;
-    } else if (strcmp(a, "--bound-from") == 0) {
-      if (next == NULL) return usage("--bound-from needs the output folder of another run");
-      bound_from = next;
-      ++i;
-    } else if (strcmp(a, "--bound-only") == 0) {
-      bound_only = true;
-    } else if (strcmp(a, "--bound-photons") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 1, INT64_C(1) << 40, &bound_photons) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--bound-replicates") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 2, HETINV_FISHER_MAX_REPLICATES, &bound_replicates) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "-o") == 0) {
-      if (next == NULL) return usage("-o needs a directory");
-      out = argv[++i];
-    } else if (strcmp(a, "--volumes") == 0) {
-      /* N (volumes 1..N) or A-B: separate ranges run side by side in
-       * separate folders, whose cells a later run reads back together. */
-      const char *dash = next ? strchr(next, '-') : NULL;
-      if (dash != NULL && dash != next) {
-        char *end = NULL;
-        long a0 = strtol(next, &end, 10), b0 = end == dash ? strtol(dash + 1, &end, 10) : -1;
-        if (*end != '\0' || a0 < 1 || b0 < a0 || b0 > 100) {
-          char msg[300];
-          snprintf(msg, sizeof msg, "--volumes: '%s' is neither a count nor a range A-B within 1-100", next);
-          return usage(msg);
-        }
-        first_volume = a0 - 1;
-        volumes = b0 - a0 + 1;
-      } else if (recon_parse_count("hetinv-fig4", a, next, 1, 100, &volumes) < 0) {
-        return 2;
-      }
-      ++i;
-    } else if (strcmp(a, "--iterations") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &iterations) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--photons") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &photons) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--truth-photons") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &truth_photons) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--minibatch") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 1, 100000, &minibatch) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--grid") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 2, 256, &grid) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--scale") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 1e-3, 1e3, &scale) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--epsilon") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &epsilon) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--epsilon-start") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &epsilon_start) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--coarse-window") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &coarse_window) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--independent-errors") == 0) {
-      independent_errors = true;
-    } else if (strcmp(a, "--pooled-errors") == 0) {
-      pooled_errors = true;
-    } else if (strcmp(a, "--residual-weights") == 0) {
-      residual_weights = true;
-    } else if (strcmp(a, "--loss-clip") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &loss_clip) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--smoothness") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e12, &smoothness) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--multiscale") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 100.0, &multiscale) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--decay") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &decay) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--coordinates") == 0) {
-      if (recon_parse_choice("hetinv-fig4", a, next, recon_coordinate_names, &coordinates) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--min-snr") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &min_snr) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--threads") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &threads) < 0) return 2;
-      ++i;
-    } else if (strcmp(a, "--configs") == 0) {
-      if (next == NULL) return usage("--configs needs a list such as 1,2,4");
-      for (int c = 1; c <= 4; ++c) configs[c] = false;
-      for (const char *p = argv[++i]; *p; ++p) {
-        if (*p >= '1' && *p <= '4') {
-          configs[*p - '0'] = true;
-        } else if (*p != ',') {
-          char msg[200];
-          snprintf(msg, sizeof msg, "--configs: '%s' is not a list of 1, 2, 3 and 4", argv[i]);
-          return usage(msg);
-        }
-      }
-    } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
-      usage("the paper's Fig. 4: imaging configurations compared on random volumes");
-      return 0;
-    } else {
-      char msg[300];
-      snprintf(msg, sizeof msg, "unknown option '%s'", a);
-      return usage(msg);
-    }
-  }
-  if (bound && bound_only) return usage("--bound and --bound-only exclude each other");
-  if (write_scenes && (bound || bound_only)) return usage("--write-scenes writes set-ups; it computes no bound");
-  if (fit && (write_scenes || bound_only)) return usage("--fit-check needs the cells' recoveries");
-  if (volumes < 0) volumes = full ? 5 : 2;
-  if (scale < 0.0) scale = full ? 0.1 : 1.0;
+  fig4_options_t o;
+  int parsed = fig4_options_parse(argc, argv, &o);
+  if (parsed != 0) return parsed == 1 ? 0 : 2;
   /* Before any simulation: a folder we can write, locked for this run
    * (released by the kernel however the process ends). */
   outdir_t dir;
-  if (outdir_open(&dir, "hetinv-fig4", out) != 0) return 1;
+  if (outdir_open(&dir, "hetinv-fig4", o.out) != 0) return 1;
   double table_mean[5][3] = {{0}}, table_max[5][3] = {{0}}, seconds[5] = {0};
   double bound_mean[5][3] = {{0}}, bound_max[5][3] = {{0}}, bound_seconds[5] = {0};
   int bound_pd[5] = {0}, bound_local[5] = {-1, -1, -1, -1, -1}; /* the smallest local radius */
@@ -718,37 +424,27 @@ int main(int argc, char **argv) {
   bool verdict_ok[5] = {false, true, true, true, true};
   double t_all = recon_now();
   for (int c = 1; c <= 4; ++c) {
-    if (!configs[c]) continue;
-    for (int64_t v = first_volume; v < first_volume + volumes; ++v) {
+    if (!o.configs[c]) continue;
+    for (int64_t v = o.first_volume; v < o.first_volume + o.volumes; ++v) {
       recon_scene_t sc;
-      make_scene(&sc, full, c, (int)v, grid, iterations, photons, minibatch, epsilon, min_snr, scale,
-                 init_truth, out);
-      if (coordinates >= 0) sc.coordinates = coordinates;
-      if (decay >= 0.0) sc.decay = decay;
-      if (epsilon_start > 0.0) sc.epsilon_start = epsilon_start;
-      if (coarse_window >= 0) sc.coarse_average_window = (int32_t)coarse_window;
-      if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
-      if (smoothness >= 0.0) sc.smoothness = smoothness;
-      if (multiscale >= 0.0) sc.multiscale = multiscale;
-      if (truth_photons > 0) sc.truth_photons = truth_photons;
-      if (independent_errors) sc.independent_errors = true;
-      if (pooled_errors) sc.pooled_errors = true;
-      if (residual_weights) sc.weighting = RECON_WEIGHT_RESIDUAL;
+      make_scene(&sc, o.full, c, (int)v, o.grid, o.iterations, o.photons, o.minibatch, o.epsilon, o.min_snr, o.scale,
+                 o.init_truth, o.out);
+      fig4_options_apply(&o, &sc);
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);
         return 1;
       }
       if (outdir_prepare("hetinv-fig4", sc.output) != 0) return 1;
-      if (write_scenes) {
+      if (o.write_scenes) {
         if (write_cell_scene(&sc) != 0) return 1;
         continue;
       }
       bool local_bound = false; /* this cell's bound is the local one */
-      if (bound || bound_only) {
+      if (o.bound || o.bound_only) {
         experiment_bound_t b;
-        if (stored_bound(&sc, threads, bound_photons > 0 ? bound_photons : sc.photons, (int32_t)bound_replicates,
-                         quiet, bound_from, &b) != 0) {
+        if (stored_bound(&sc, o.threads, o.bound_photons > 0 ? o.bound_photons : sc.photons, (int32_t)o.bound_replicates,
+                         o.quiet, o.bound_from, &b) != 0) {
           return 1;
         }
         /* Where F̂ is not positive definite, the local bound stands in
@@ -758,54 +454,54 @@ int main(int argc, char **argv) {
         if (local && (bound_local[c] < 0 || b.local_radius < bound_local[c])) bound_local[c] = b.local_radius;
         for (int p = 0; p < 3; ++p) {
           double mean = local ? b.local_mean[p] : b.mean[p], max = local ? b.local_max[p] : b.max[p];
-          bound_mean[c][p] += mean / (double)volumes;
+          bound_mean[c][p] += mean / (double)o.volumes;
           if (!(max <= bound_max[c][p])) bound_max[c][p] = max; /* NaN propagates */
         }
         bound_seconds[c] += b.seconds;
         bound_pd[c] += b.positive_definite;
-        if (bound_only) continue;
+        if (o.bound_only) continue;
       }
       char key[1024];
       experiment_cell_key(&sc, key, sizeof key);
       experiment_cell_t cell;
       bool reused = experiment_cell_load(sc.output, key, &cell);
-      if (!reused && run_cell(&sc, threads, quiet, &cell) != 0) return 1;
+      if (!reused && run_cell(&sc, o.threads, o.quiet, &cell) != 0) return 1;
       if (!reused && experiment_cell_store(sc.output, key, &cell) != 0) {
         fprintf(stderr, "hetinv-fig4: %s/cell.csv: %s\n", sc.output, strerror(errno));
         return 1;
       }
       for (int p = 0; p < 3; ++p) {
-        table_mean[c][p] += cell.errors.mean[p] / (double)volumes;
+        table_mean[c][p] += cell.errors.mean[p] / (double)o.volumes;
         if (cell.errors.max[p] > table_max[c][p]) table_max[c][p] = cell.errors.max[p];
       }
       seconds[c] += cell.seconds;
-      if (!quiet) {
+      if (!o.quiet) {
         const recon_errors_t *e = &cell.errors;
         printf("%s: mean/max relative error: sigma_a %.1f/%.1f %%, sigma_s %.1f/%.1f %%, g %.1f/%.1f %% (%.0f s%s)\n",
                sc.name, 100 * e->mean[0], 100 * e->max[0], 100 * e->mean[1], 100 * e->max[1], 100 * e->mean[2],
                100 * e->max[2], cell.seconds, reused ? ", stored by an earlier run" : "");
         fflush(stdout);
       }
-      if (bound && verdict_ok[c] && experiment_verdict_add(sc.output, local_bound, &verdict[c], msg, sizeof msg) != 0) {
+      if (o.bound && verdict_ok[c] && experiment_verdict_add(sc.output, local_bound, &verdict[c], msg, sizeof msg) != 0) {
         fprintf(stderr, "hetinv-fig4: %s: no per-voxel target check for this configuration: %s\n", sc.name, msg);
         verdict_ok[c] = false;
       }
-      if (fit && print_fit_check(&sc, threads, fit_photons, (int32_t)fit_replicates) != 0) return 1;
+      if (o.fit && print_fit_check(&sc, o.threads, o.fit_photons, (int32_t)o.fit_replicates) != 0) return 1;
     }
   }
-  if (write_scenes) {
+  if (o.write_scenes) {
     int status = outdir_finish_stdout("hetinv-fig4") != 0;
     outdir_close(&dir);
     return status;
   }
   int status = 0;
-  if (!bound_only) status = error_table(out, full, volumes, configs, table_mean, table_max, seconds);
-  if ((bound || bound_only) &&
-      bound_table(out, volumes, configs, bound_mean, bound_max, bound_pd, bound_local, bound_seconds,
-                  bound_only ? NULL : table_mean) != 0) {
+  if (!o.bound_only) status = error_table(o.out, o.full, o.volumes, o.configs, table_mean, table_max, seconds);
+  if ((o.bound || o.bound_only) &&
+      bound_table(o.out, o.volumes, o.configs, bound_mean, bound_max, bound_pd, bound_local, bound_seconds,
+                  o.bound_only ? NULL : table_mean) != 0) {
     status = 1;
   }
-  if (bound && target_table(out, configs, verdict_ok, table_mean, bound_mean, verdict) != 0) status = 1;
+  if (o.bound && target_table(o.out, o.configs, verdict_ok, table_mean, bound_mean, verdict) != 0) status = 1;
   if (status == 0) printf("total %.0f s\n", recon_now() - t_all);
   if (outdir_finish_stdout("hetinv-fig4") != 0) status = 1;
   outdir_close(&dir);

@@ -1,0 +1,187 @@
+/* hetinv-fig4's command line (fig4_options.h). */
+#include "fig4_options.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "hetinv/bound.h"
+
+static int usage(const char *what) {
+  fprintf(stderr,
+          "hetinv-fig4: %s\n"
+          "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
+          "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
+          "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]\n"
+          "                   [--residual-weights]\n"
+          "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"
+          "                   [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]\n"
+          "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
+          "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
+          "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--fit-check] [--fit-photons N]\n"
+          "                   [--fit-replicates N]\n",
+          what);
+  return 2;
+}
+
+int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
+  *o = (fig4_options_t){
+      .configs = {false, true, true, true, true},
+      .out = "out/fig4",
+      .volumes = -1, .iterations = -1, .photons = -1, .minibatch = -1, .grid = -1, .threads = -1,
+      .truth_photons = -1, .coarse_window = -1,
+      .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4,
+      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .epsilon_start = -1.0,
+      .loss_clip = -1.0, .smoothness = -1.0, .multiscale = -1.0,
+      .coordinates = -1,
+  };
+  for (int i = 1; i < argc; ++i) {
+    const char *a = argv[i];
+    const char *next = i + 1 < argc ? argv[i + 1] : NULL;
+    if (strcmp(a, "--full") == 0) {
+      o->full = true;
+    } else if (strcmp(a, "--quiet") == 0) {
+      o->quiet = true;
+    } else if (strcmp(a, "--write-scenes") == 0) {
+      o->write_scenes = true;
+    } else if (strcmp(a, "--init-truth") == 0) {
+      o->init_truth = true;
+    } else if (strcmp(a, "--fit-check") == 0) {
+      o->fit = true;
+    } else if (strcmp(a, "--fit-photons") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, INT64_C(1) << 40, &o->fit_photons) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--fit-replicates") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 2, 1000, &o->fit_replicates) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--bound") == 0) {
+      o->bound = true;
+    } else if (strcmp(a, "--bound-from") == 0) {
+      if (next == NULL) return usage("--bound-from needs the output folder of another run");
+      o->bound_from = next;
+      ++i;
+    } else if (strcmp(a, "--bound-only") == 0) {
+      o->bound_only = true;
+    } else if (strcmp(a, "--bound-photons") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, INT64_C(1) << 40, &o->bound_photons) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--bound-replicates") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 2, HETINV_FISHER_MAX_REPLICATES, &o->bound_replicates) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "-o") == 0) {
+      if (next == NULL) return usage("-o needs a directory");
+      o->out = argv[++i];
+    } else if (strcmp(a, "--volumes") == 0) {
+      /* N (volumes 1..N) or A-B: separate ranges run side by side in
+       * separate folders, whose cells a later run reads back together. */
+      const char *dash = next ? strchr(next, '-') : NULL;
+      if (dash != NULL && dash != next) {
+        char *end = NULL;
+        long a0 = strtol(next, &end, 10), b0 = end == dash ? strtol(dash + 1, &end, 10) : -1;
+        if (*end != '\0' || a0 < 1 || b0 < a0 || b0 > 100) {
+          char msg[300];
+          snprintf(msg, sizeof msg, "--volumes: '%s' is neither a count nor a range A-B within 1-100", next);
+          return usage(msg);
+        }
+        o->first_volume = a0 - 1;
+        o->volumes = b0 - a0 + 1;
+      } else if (recon_parse_count("hetinv-fig4", a, next, 1, 100, &o->volumes) < 0) {
+        return 2;
+      }
+      ++i;
+    } else if (strcmp(a, "--iterations") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &o->iterations) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--photons") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &o->photons) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--truth-photons") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &o->truth_photons) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--minibatch") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 100000, &o->minibatch) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--grid") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 2, 256, &o->grid) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--scale") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-3, 1e3, &o->scale) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--epsilon") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->epsilon) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--epsilon-start") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->epsilon_start) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--coarse-window") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &o->coarse_window) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--independent-errors") == 0) {
+      o->independent_errors = true;
+    } else if (strcmp(a, "--pooled-errors") == 0) {
+      o->pooled_errors = true;
+    } else if (strcmp(a, "--residual-weights") == 0) {
+      o->residual_weights = true;
+    } else if (strcmp(a, "--loss-clip") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &o->loss_clip) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--smoothness") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e12, &o->smoothness) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--multiscale") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 100.0, &o->multiscale) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--decay") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &o->decay) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--coordinates") == 0) {
+      if (recon_parse_choice("hetinv-fig4", a, next, recon_coordinate_names, &o->coordinates) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--min-snr") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &o->min_snr) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--threads") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &o->threads) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--configs") == 0) {
+      if (next == NULL) return usage("--configs needs a list such as 1,2,4");
+      for (int c = 1; c <= 4; ++c) o->configs[c] = false;
+      for (const char *p = argv[++i]; *p; ++p) {
+        if (*p >= '1' && *p <= '4') {
+          o->configs[*p - '0'] = true;
+        } else if (*p != ',') {
+          char msg[200];
+          snprintf(msg, sizeof msg, "--configs: '%s' is not a list of 1, 2, 3 and 4", argv[i]);
+          return usage(msg);
+        }
+      }
+    } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+      usage("the paper's Fig. 4: imaging configurations compared on random volumes");
+      return 1;
+    } else {
+      char msg[300];
+      snprintf(msg, sizeof msg, "unknown option '%s'", a);
+      return usage(msg);
+    }
+  }
+  if (o->bound && o->bound_only) return usage("--bound and --bound-only exclude each other");
+  if (o->write_scenes && (o->bound || o->bound_only)) return usage("--write-scenes writes set-ups; it computes no bound");
+  if (o->fit && (o->write_scenes || o->bound_only)) return usage("--fit-check needs the cells' recoveries");
+  if (o->volumes < 0) o->volumes = o->full ? 5 : 2;
+  if (o->scale < 0.0) o->scale = o->full ? 0.1 : 1.0;
+  return 0;
+}
+
+void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
+  if (o->coordinates >= 0) sc->coordinates = o->coordinates;
+  if (o->decay >= 0.0) sc->decay = o->decay;
+  if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
+  if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;
+  if (o->loss_clip >= 0.0) sc->loss_clip = o->loss_clip;
+  if (o->smoothness >= 0.0) sc->smoothness = o->smoothness;
+  if (o->multiscale >= 0.0) sc->multiscale = o->multiscale;
+  if (o->truth_photons > 0) sc->truth_photons = o->truth_photons;
+  if (o->independent_errors) sc->independent_errors = true;
+  if (o->pooled_errors) sc->pooled_errors = true;
+  if (o->residual_weights) sc->weighting = RECON_WEIGHT_RESIDUAL;
+}

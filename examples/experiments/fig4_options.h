@@ -1,0 +1,32 @@
+/* hetinv-fig4's command line: what it asks for, checked, and the settings
+ * it overrides in each cell's scene. */
+#ifndef FIG4_OPTIONS_H
+#define FIG4_OPTIONS_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "recon.h"
+
+/* -1 (or NULL) where the option was not given: the scene's default. */
+typedef struct fig4_options {
+  bool full, quiet, write_scenes, configs[5]; /* configs[1..4] */
+  bool bound, bound_only, init_truth, fit;
+  bool independent_errors, pooled_errors, residual_weights;
+  const char *bound_from, *out;
+  int64_t first_volume, volumes; /* volumes first_volume + 1 .. first_volume + volumes */
+  int64_t iterations, photons, minibatch, grid, threads, truth_photons, coarse_window;
+  int64_t bound_photons, bound_replicates, fit_photons, fit_replicates;
+  double scale, epsilon, min_snr, decay, epsilon_start, loss_clip, smoothness, multiscale;
+  int coordinates;
+} fig4_options_t;
+
+/* Reads argv into *o: 0 to run, 1 if it printed the help, 2 after printing
+ * what is wrong with the command line and the usage. */
+int fig4_options_parse(int argc, char **argv, fig4_options_t *o);
+
+/* Sets in a cell's scene the settings the command line overrides
+ * (make_scene takes the others). */
+void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc);
+
+#endif
