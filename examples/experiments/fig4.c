@@ -289,34 +289,7 @@ static int print_fit_check(const recon_scene_t *sc, int64_t threads, int64_t pho
     fprintf(stderr, "hetinv-fig4: %s\n", msg);
     return 1;
   }
-  double diff = f.recovery - f.truth;
-  const char *verdict = fabs(diff) < 2.0 * f.difference_se ? "no difference at this precision"
-                        : diff < 0.0 ? "the data prefer the recovery: what limits it is the data"
-                                     : "the truth fits better: what limits it is the optimizer";
-  printf("%s: misfit at the truth %.6g +- %.2g (expected %.6g from the data's noise, %zu values), "
-         "at the recovery %.6g +- %.2g; recovery - truth %+.6g +- %.2g: %s (%lld photons per source, %.0f s)\n",
-         sc->name, f.truth, f.truth_se, f.expected, f.values, f.recovery, f.recovery_se, diff, f.difference_se,
-         verdict, (long long)photons, f.seconds);
-  printf("  the ten values with the largest shares of that error hold %.0f %% of its variance; the largest "
-         "(%.0f %%): row %d (%s), data %.3g +- %.2g, the truth's render %.3g +- %.2g\n",
-         100.0 * f.top10_share, 100.0 * f.worst.share, (int)f.worst.row, f.worst.bins ? "pathlength bins" : "steady",
-         f.worst.data, f.worst.data_se, f.worst.render, f.worst.render_se);
-  printf("  the truth's render against the data: %zu / %zu / %zu of %zu values beyond %g / %g / %g standard "
-         "errors; those beyond %g hold %.1f %% of the truth's sum of squares\n",
-         f.beyond[0], f.beyond[1], f.beyond[2], f.values, FIT_CHECK_TAILS[0], FIT_CHECK_TAILS[1], FIT_CHECK_TAILS[2],
-         FIT_CHECK_TAILS[1], 100.0 * f.beyond10_share);
-  double t = f.trimmed_difference, tse = f.trimmed_se;
-  printf("  without those ten values: recovery - truth %+.6g +- %.2g: %s\n", t, tse,
-         fabs(t) < 2.0 * tse ? "no difference at this precision"
-         : t < 0.0          ? "the data prefer the recovery"
-                            : "the truth fits better");
-  double d = f.loss_difference, dse = f.loss_difference_se;
-  printf("  the run's loss (%s), %d pairs of renders: at the truth %.6g, recovery - truth %+.6g +- %.2g: %s\n",
-         sc->loss_clip > 0.0 ? "Huber's" : "least squares", (int)f.loss_replicates, f.loss_truth, d, dse,
-         fabs(d) < 2.0 * dse ? "no difference at this precision"
-         : d < 0.0          ? "the data prefer the recovery: what limits it is the data"
-                            : "the truth fits better: what limits it is the optimizer");
-  fflush(stdout);
+  fit_check_print(sc, photons, &f);
   if (fit_check_store(sc, photons, &f) != 0) {
     fprintf(stderr, "hetinv-fig4: %s/fit_check.csv: %s\n", sc->output, strerror(errno));
     return 1;

@@ -180,6 +180,46 @@ static hetinv_result_t read_recovery(hetinv_context_t *ctx, const recon_scene_t 
   return r;
 }
 
+hetinv_result_t fit_check_compare(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_measurements_t *set,
+                                  const hetinv_medium_t *truth, const hetinv_medium_t *rec, int64_t photons,
+                                  int32_t replicates, fit_check_t *out) {
+  *out = (fit_check_t){0};
+  double t0 = recon_now();
+  hetinv_estimator_t *est = NULL;
+  size_t n = hetinv_measurements_value_count(set);
+  double *buf = malloc(6 * (n ? n : 1) * sizeof *buf);
+  hetinv_result_t r = buf ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)photons);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, FIT_CHECK_STREAM);
+  double *it = buf, *st = buf + n, *ir = buf + 2 * n, *sr = buf + 3 * n, *pt = buf + 4 * n, *pr = buf + 5 * n;
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, set, it, st, NULL, n);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, rec, set, ir, sr, NULL, n);
+  if (r == HETINV_SUCCESS) {
+    misfit(set, it, st, &out->truth, &out->truth_se, pt);
+    misfit(set, ir, sr, &out->recovery, &out->recovery_se, pr);
+    /* The difference's error without the two renders' covariance, which
+     * is positive (they share photons): an upper bound. */
+    const double *w = hetinv_measurements_weights(set), *se = hetinv_measurements_std_errors(set);
+    const uint8_t *mask = hetinv_measurements_mask(set);
+    double var = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      if (!mask[i] || !(w[i] > 0.0)) continue;
+      var += pt[i] + pr[i];
+      out->expected += w[i] * se[i] * se[i];
+      ++out->values;
+    }
+    out->difference_se = sqrt(var);
+    find_worst(set, pt, pr, it, st, ir, sr, var, out);
+    tails(set, it, out);
+    r = loss_pairs(est, sc, truth, rec, set, replicates, it, st, ir, sr, out);
+  }
+  out->seconds = recon_now() - t0;
+  free(buf);
+  hetinv_estimator_destroy(&est);
+  return r;
+}
+
 int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, int32_t replicates,
                   fit_check_t *out, char *msg, size_t msg_size) {
   *out = (fit_check_t){0};
@@ -193,50 +233,17 @@ int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, int
     return -1;
   }
   hetinv_medium_t *truth = NULL, *rec = NULL;
-  hetinv_estimator_t *est = NULL;
   recon_imaging_t im = {0};
-  double *buf = NULL;
   msg[0] = '\0';
   hetinv_result_t r = recon_truth_create(ctx, sc, &truth);
   if (r == HETINV_SUCCESS) r = recon_imaging_build(ctx, truth, sc, &im);
   if (r == HETINV_SUCCESS) r = recon_simulate(ctx, sc, truth, &im);
   if (r == HETINV_SUCCESS) r = read_recovery(ctx, sc, &rec, msg, msg_size);
-  size_t n = r == HETINV_SUCCESS ? hetinv_measurements_value_count(im.set) : 0;
-  if (r == HETINV_SUCCESS) {
-    buf = malloc(6 * (n ? n : 1) * sizeof *buf);
-    if (buf == NULL) r = HETINV_ERROR_OUT_OF_MEMORY;
-  }
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)photons);
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, FIT_CHECK_STREAM);
-  double *it = buf, *st = buf + n, *ir = buf + 2 * n, *sr = buf + 3 * n, *pt = buf + 4 * n, *pr = buf + 5 * n;
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im.set, it, st, NULL, n);
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, rec, im.set, ir, sr, NULL, n);
-  if (r == HETINV_SUCCESS) {
-    misfit(im.set, it, st, &out->truth, &out->truth_se, pt);
-    misfit(im.set, ir, sr, &out->recovery, &out->recovery_se, pr);
-    /* The difference's error without the two renders' covariance, which
-     * is positive (they share photons): an upper bound. */
-    const double *w = hetinv_measurements_weights(im.set), *se = hetinv_measurements_std_errors(im.set);
-    const uint8_t *mask = hetinv_measurements_mask(im.set);
-    double var = 0.0;
-    for (size_t i = 0; i < n; ++i) {
-      if (!mask[i] || !(w[i] > 0.0)) continue;
-      var += pt[i] + pr[i];
-      out->expected += w[i] * se[i] * se[i];
-      ++out->values;
-    }
-    out->difference_se = sqrt(var);
-    find_worst(im.set, pt, pr, it, st, ir, sr, var, out);
-    tails(im.set, it, out);
-    r = loss_pairs(est, sc, truth, rec, im.set, replicates, it, st, ir, sr, out);
-  }
+  if (r == HETINV_SUCCESS) r = fit_check_compare(ctx, sc, im.set, truth, rec, photons, replicates, out);
   if (r != HETINV_SUCCESS && msg[0] == '\0') {
     snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(ctx));
   }
-  out->seconds = recon_now() - t0;
-  free(buf);
-  hetinv_estimator_destroy(&est);
+  out->seconds = recon_now() - t0; /* the data's simulation included */
   hetinv_medium_destroy(&rec);
   hetinv_medium_destroy(&truth);
   recon_imaging_release(&im);
@@ -263,4 +270,39 @@ int fit_check_store(const recon_scene_t *sc, int64_t photons, const fit_check_t 
   fprintf(out, "photons,%lld\nreplicates,%d\nloss_clip,%.9g\nseconds,%.3f\n", (long long)photons,
           (int)f->loss_replicates, sc->loss_clip, f->seconds);
   return recon_text_commit(out, tmp, path);
+}
+
+/* "no difference at this precision", or which of the two fits the data
+ * better and so what limits the recovery. */
+static const char *verdict_words(double d, double se) {
+  return fabs(d) < 2.0 * se ? "no difference at this precision"
+         : d < 0.0          ? "the data prefer the recovery: what limits it is the data"
+                            : "the truth fits better: what limits it is the optimizer";
+}
+
+void fit_check_print(const recon_scene_t *sc, int64_t photons, const fit_check_t *f) {
+  double diff = f->recovery - f->truth;
+  printf("%s: misfit at the truth %.6g +- %.2g (expected %.6g from the data's noise, %zu values), "
+         "at the recovery %.6g +- %.2g; recovery - truth %+.6g +- %.2g: %s (%lld photons per source, %.0f s)\n",
+         sc->name, f->truth, f->truth_se, f->expected, f->values, f->recovery, f->recovery_se, diff,
+         f->difference_se, verdict_words(diff, f->difference_se), (long long)photons, f->seconds);
+  printf("  the ten values with the largest shares of that error hold %.0f %% of its variance; the largest "
+         "(%.0f %%): row %d (%s), data %.3g +- %.2g, the truth's render %.3g +- %.2g\n",
+         100.0 * f->top10_share, 100.0 * f->worst.share, (int)f->worst.row,
+         f->worst.bins ? "pathlength bins" : "steady", f->worst.data, f->worst.data_se, f->worst.render,
+         f->worst.render_se);
+  printf("  the truth's render against the data: %zu / %zu / %zu of %zu values beyond %g / %g / %g standard "
+         "errors; those beyond %g hold %.1f %% of the truth's sum of squares\n",
+         f->beyond[0], f->beyond[1], f->beyond[2], f->values, FIT_CHECK_TAILS[0], FIT_CHECK_TAILS[1],
+         FIT_CHECK_TAILS[2], FIT_CHECK_TAILS[1], 100.0 * f->beyond10_share);
+  double t = f->trimmed_difference, tse = f->trimmed_se;
+  printf("  without those ten values: recovery - truth %+.6g +- %.2g: %s\n", t, tse,
+         fabs(t) < 2.0 * tse ? "no difference at this precision"
+         : t < 0.0          ? "the data prefer the recovery"
+                            : "the truth fits better");
+  double d = f->loss_difference, dse = f->loss_difference_se;
+  printf("  the run's loss (%s), %d pairs of renders: at the truth %.6g, recovery - truth %+.6g +- %.2g: %s\n",
+         sc->loss_clip > 0.0 ? "Huber's" : "least squares", (int)f->loss_replicates, f->loss_truth, d, dse,
+         verdict_words(d, dse));
+  fflush(stdout);
 }

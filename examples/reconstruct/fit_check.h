@@ -1,7 +1,7 @@
 /* The data-or-optimizer test by the loss itself: is the recovery a better
  * fit to the data than the truth? */
-#ifndef HETINV_EXPERIMENT_FIT_CHECK_H
-#define HETINV_EXPERIMENT_FIT_CHECK_H
+#ifndef HETINV_RECON_FIT_CHECK_H
+#define HETINV_RECON_FIT_CHECK_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -64,6 +64,17 @@ int fit_check_store(const recon_scene_t *scene, int64_t photons, const fit_check
 
 /* The thresholds of fit_check_t.beyond, in standard errors. */
 extern const double FIT_CHECK_TAILS[3];
+
+/* Renders the truth and the recovery at `photons` per emitter against the
+ * data `set` (their values, standard errors, weights and mask), once for
+ * the misfit and `replicates` (2 or more) times more for the run's loss.
+ * Every rank of ctx takes part; the figures are the same on each. */
+hetinv_result_t fit_check_compare(hetinv_context_t *ctx, const recon_scene_t *scene, const hetinv_measurements_t *set,
+                                  const hetinv_medium_t *truth, const hetinv_medium_t *recovery, int64_t photons,
+                                  int32_t replicates, fit_check_t *out);
+
+/* Prints the comparison under the scene's name, with a verdict per figure. */
+void fit_check_print(const recon_scene_t *scene, int64_t photons, const fit_check_t *f);
 
 /* Simulates the scene's data (as its cell did), reads the recovery from
  * <scene->output>/recovered_<param>.vol and renders both at `photons` per
