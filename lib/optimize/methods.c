@@ -89,11 +89,10 @@ static void reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, s
 /* reduced_step in (u = ln σs', g) where σs's box is positive and bounded
  * (else reduced_step): σs = e^u / (1 − g), so ∂L/∂u = ∂L/∂σs · σs and
  * ∂L/∂g|u = ∂L/∂g + ∂L/∂σs · σs / (1 − g), the same as in (σs', g); u's
- * scale is ln(hi/lo) of σs's box. Returns u's move (for the step's RMS,
- * in units of that scale) through *du_scaled. */
-static void log_reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, size_t j,
+ * scale su is log_scale of σs's entry. Returns u's move (for the step's
+ * RMS, in units of su) through *du_scaled. */
+static void log_reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, size_t j, double su,
                              double *du_scaled, double *dj) {
-  double su = log_scale(opt, i);
   double s = opt->pi[i], g = opt->pi[j], q = 1.0 - g;
   double gu = opt->grad[i] * s, gg = opt->grad[j] + opt->grad[i] * s / q;
   double du = delta_at(m, opt, i, gu, su), dg = delta(m, opt, j, gg);
@@ -131,10 +130,10 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
   for (size_t i = 0; i < opt->k; ++i) {
     if ((frozen && frozen[i]) || (reduced && opt->pair_of_g[i] >= 0)) continue;
     int64_t j = reduced ? opt->pair_of_sigma_s[i] : -1;
-    double d = 0.0, s = 0.0;
-    if (j >= 0 && logs && log_scale(opt, i) > 0.0) {
+    double d = 0.0, s = logs ? log_scale(opt, i) : 0.0;
+    if (j >= 0 && s > 0.0) {
       double du = 0.0, dj = 0.0;
-      log_reduced_step(&m, opt, i, (size_t)j, &du, &dj);
+      log_reduced_step(&m, opt, i, (size_t)j, s, &du, &dj);
       sq += du * du + (dj / opt->scale[j]) * (dj / opt->scale[j]);
       moved += 2;
       continue;
@@ -143,7 +142,7 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
       reduced_step(&m, opt, i, (size_t)j, &d, &dj);
       sq += (dj / opt->scale[j]) * (dj / opt->scale[j]);
       ++moved;
-    } else if (logs && (s = log_scale(opt, i)) > 0.0) {
+    } else if (s > 0.0) {
       double pi = opt->pi[i];
       double du = delta_at(&m, opt, i, pi * opt->grad[i], s);
       opt->pi[i] = clamp(pi * exp(-du), opt->lo_k[i], opt->hi_k[i]);

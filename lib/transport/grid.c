@@ -6,6 +6,8 @@
 #include "core/error.h"
 #include "medium/medium_internal.h"
 
+static size_t voxel_count(const hv_grid_t *g) { return (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2]; }
+
 static hetinv_result_t choose_tracking(hv_grid_t *grid);
 
 hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
@@ -74,7 +76,7 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
  * voxel face (Σ_a E|d_a| / h_a = Σ_a 1/(2 h_a) for isotropic directions)
  * and a set-up per collision (σt's mean), and builds its byte table. */
 static hetinv_result_t choose_tracking(hv_grid_t *grid) {
-  size_t n = (size_t)grid->n[0] * (size_t)grid->n[1] * (size_t)grid->n[2];
+  size_t n = voxel_count(grid);
   double max = 0.0, sum = 0.0;
   for (size_t i = 0; i < n; ++i) {
     double st = grid->voxel[i].sigma_t;
@@ -112,12 +114,12 @@ void hv_grid_release(hv_grid_t *grid) {
 }
 
 size_t hv_grid_voxel_bytes(const hv_grid_t *g) {
-  size_t n = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2];
+  size_t n = voxel_count(g);
   return n * (sizeof *g->voxel + (g->sigma_t_q ? 1 : 0));
 }
 
 bool hv_grid_copy_alloc(const hv_grid_t *g, hv_grid_t *copy) {
-  size_t n = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2];
+  size_t n = voxel_count(g);
   *copy = *g;
   copy->voxel = hv_alloc(g->ctx, n * sizeof *g->voxel);
   copy->sigma_t_q = g->sigma_t_q ? hv_alloc(g->ctx, n) : NULL;
@@ -129,7 +131,7 @@ bool hv_grid_copy_alloc(const hv_grid_t *g, hv_grid_t *copy) {
 }
 
 void hv_grid_copy_fill(const hv_grid_t *g, hv_grid_t *copy) {
-  size_t n = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2];
+  size_t n = voxel_count(g);
   memcpy(copy->voxel, g->voxel, n * sizeof *g->voxel);
   if (g->sigma_t_q) memcpy(copy->sigma_t_q, g->sigma_t_q, n);
 }
@@ -162,7 +164,7 @@ static void axis_depth_fill(const hv_grid_t *g, int a, int up, double *out) {
 hetinv_result_t hv_grid_build_axis_depths(hv_grid_t *grid, uint32_t faces) {
   faces &= 0x3fu;
   if (grid->uniform || faces == 0) return HETINV_SUCCESS;
-  size_t n = (size_t)grid->n[0] * (size_t)grid->n[1] * (size_t)grid->n[2];
+  size_t n = voxel_count(grid);
   size_t tables = 0, bytes = 0;
   for (int f = 0; f < 6; ++f) tables += (faces >> f) & 1u;
   if (hv_mul_size(n, tables * sizeof(double), &bytes)) grid->axis_depth_storage = hv_alloc(grid->ctx, bytes);
