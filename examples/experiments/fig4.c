@@ -136,10 +136,12 @@
 
 
 
-/* The scene of configuration c and volume v. */
-static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid, int64_t iterations, int64_t photons,
-                       int64_t minibatch, double epsilon, double min_snr, double scale, bool init_truth,
-                       const char *out) {
+/* The scene of configuration c and volume v, with the command line's settings. */
+static void make_scene(recon_scene_t *sc, const fig4_options_t *o, int c, int v) {
+  const bool full = o->full, init_truth = o->init_truth;
+  const int64_t grid = o->grid, iterations = o->iterations, photons = o->photons, minibatch = o->minibatch;
+  const double epsilon = o->epsilon, min_snr = o->min_snr, scale = o->scale;
+  const char *out = o->out;
   recon_scene_default(sc);
   snprintf(sc->name, sizeof sc->name, "Fig. 4 %s, volume %d", fig4_config_names[c], v + 1);
   sc->config = (recon_config_t)c;
@@ -220,6 +222,7 @@ static void make_scene(recon_scene_t *sc, bool full, int c, int v, int64_t grid,
     sc->level_count = 1;
   }
   snprintf(sc->output, sizeof sc->output, "%s/config%d_volume%d", out, c, v + 1);
+  fig4_options_apply(o, sc);
 }
 
 /* Writes one cell's set-up as a render scene, its truth and the
@@ -406,9 +409,7 @@ int main(int argc, char **argv) {
     if (!o.configs[c]) continue;
     for (int64_t v = o.first_volume; v < o.first_volume + o.volumes; ++v) {
       recon_scene_t sc;
-      make_scene(&sc, o.full, c, (int)v, o.grid, o.iterations, o.photons, o.minibatch, o.epsilon, o.min_snr, o.scale,
-                 o.init_truth, o.out);
-      fig4_options_apply(&o, &sc);
+      make_scene(&sc, &o, c, (int)v);
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);
