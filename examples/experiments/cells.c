@@ -55,6 +55,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->pooled_errors) {
     key_append(key, key_size, " pooled_errors=1");
   }
+  if (sc->expected_camera_errors) {
+    key_append(key, key_size, " expected_camera_errors=1");
+  }
   if (sc->smoothness != 0.0) {
     key_append(key, key_size, " smoothness=%.17g", sc->smoothness);
   }
@@ -142,6 +145,9 @@ static void data_key(const recon_scene_t *sc, char *key, size_t key_size) {
   }
   if (sc->pooled_errors) {
     key_append(key, key_size, " pooled_errors=1");
+  }
+  if (sc->expected_camera_errors) {
+    key_append(key, key_size, " expected_camera_errors=1");
   }
 }
 

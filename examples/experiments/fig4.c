@@ -9,7 +9,7 @@
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
  *               [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]
- *               [--residual-weights]
+ *               [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--truth-photons N]
  *               [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
@@ -86,7 +86,12 @@
  * (acquisition.independent_errors); --pooled-errors takes each value's
  * Monte Carlo variance as its value times the variance-to-value ratio of
  * its neighbours in the image (acquisition.pooled_errors), for the
- * weights, the mask and the bound alike; --residual-weights weights each
+ * weights, the mask and the bound alike; --expected-camera-errors (a
+ * diagnostic) takes each value's camera error from its noise-free value's
+ * expected electron count instead of the count recorded, so that no weight
+ * depends on the camera's draw (acquisition.expected_camera_errors; with
+ * --independent-errors no weight depends on the data's noise at all);
+ * --residual-weights weights each
  * value by 1/variance of the loss's residual, the data's noise plus the
  * optimizer's render's Monte Carlo variance at --photons
  * (acquisition.weighting "residual"), so that Huber's clip counts in

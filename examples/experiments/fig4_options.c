@@ -13,7 +13,7 @@ static int usage(const char *what) {
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
           "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]\n"
-          "                   [--residual-weights]\n"
+          "                   [--expected-camera-errors] [--residual-weights]\n"
           "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"
           "                   [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
@@ -120,6 +120,8 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       o->independent_errors = true;
     } else if (strcmp(a, "--pooled-errors") == 0) {
       o->pooled_errors = true;
+    } else if (strcmp(a, "--expected-camera-errors") == 0) {
+      o->expected_camera_errors = true;
     } else if (strcmp(a, "--residual-weights") == 0) {
       o->residual_weights = true;
     } else if (strcmp(a, "--loss-clip") == 0) {
@@ -183,5 +185,6 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->truth_photons > 0) sc->truth_photons = o->truth_photons;
   if (o->independent_errors) sc->independent_errors = true;
   if (o->pooled_errors) sc->pooled_errors = true;
+  if (o->expected_camera_errors) sc->expected_camera_errors = true;
   if (o->residual_weights) sc->weighting = RECON_WEIGHT_RESIDUAL;
 }

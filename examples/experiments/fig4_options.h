@@ -12,7 +12,7 @@
 typedef struct fig4_options {
   bool full, quiet, write_scenes, configs[5]; /* configs[1..4] */
   bool bound, bound_only, init_truth, fit;
-  bool independent_errors, pooled_errors, residual_weights;
+  bool independent_errors, pooled_errors, expected_camera_errors, residual_weights;
   const char *bound_from, *out;
   int64_t first_volume, volumes; /* volumes first_volume + 1 .. first_volume + volumes */
   int64_t iterations, photons, minibatch, grid, threads, truth_photons, coarse_window;

@@ -106,6 +106,13 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
     hetinv_noise_model_t model = sc->noise_model;
     model.first_index = off;
     r = hetinv_noise_apply(ctx, &model, clean + off, v + off, se + off, len, &exposure);
+    if (r == HETINV_SUCCESS && sc->expected_camera_errors) {
+      /* The library's error is the recorded count's; this one the expected count's. */
+      double read_variance = model.read_noise * model.read_noise;
+      for (size_t i = 0; i < len; ++i) {
+        se[off + i] = sqrt(fmax(exposure * clean[off + i], 0.0) + read_variance) / exposure;
+      }
+    }
     /* The clean values are themselves a Monte Carlo render: its error is
      * in the data as much as the camera's (on the built-in scene at 30000
      * photons it was 1.7x the camera's on average), so the standard error

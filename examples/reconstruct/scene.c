@@ -314,14 +314,15 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   static const char *const allowed[] = {"noise", "full_well", "read_noise", "seed", "weighting",
                                         "photons", "measurements", "render_scene", "measured",
                                         "std_errors", "gain", "saturation", "min_snr", "independent_errors",
-                                        "pooled_errors", NULL};
+                                        "pooled_errors", "expected_camera_errors", NULL};
   if (jr_check_object(jr, o, "acquisition", allowed) < 0) return -1;
   if (jr_number(jr, o, "acquisition", "min_snr", JR_OPTIONAL, &sc->min_snr) < 0) return -1;
   if (!(sc->min_snr >= 0.0 && sc->min_snr <= 1e6)) {
     return jr_fail(jr, "acquisition.min_snr", "is %g; expected a number from 0 to 1e6", sc->min_snr);
   }
   if (read_simulation_flag(jr, o, "independent_errors", &sc->independent_errors) < 0 ||
-      read_simulation_flag(jr, o, "pooled_errors", &sc->pooled_errors) < 0) {
+      read_simulation_flag(jr, o, "pooled_errors", &sc->pooled_errors) < 0 ||
+      read_simulation_flag(jr, o, "expected_camera_errors", &sc->expected_camera_errors) < 0) {
     return -1;
   }
   if (jr_get(o, "render_scene") != NULL) return read_files(jr, o, sc);
