@@ -88,9 +88,10 @@
  * its neighbours in the image (acquisition.pooled_errors), for the
  * weights, the mask and the bound alike; --expected-camera-errors (a
  * diagnostic) takes each value's camera error from its noise-free value's
- * expected electron count instead of the count recorded, so that no weight
+ * expected electron count instead of the count recorded, and tests
+ * --min-snr on the noise-free value, so that neither a weight nor the mask
  * depends on the camera's draw (acquisition.expected_camera_errors; with
- * --independent-errors no weight depends on the data's noise at all);
+ * --independent-errors neither depends on the data's noise at all);
  * --residual-weights weights each
  * value by 1/variance of the loss's residual, the data's noise plus the
  * optimizer's render's Monte Carlo variance at --photons

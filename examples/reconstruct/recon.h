@@ -89,11 +89,13 @@ typedef struct recon_scene {
    * value and a small error, so the largest weights go to the values that
    * came out low. */
   bool independent_errors;
-  /* A diagnostic of the weights' own bias: the camera part of each simulated
-   * value's standard error from its noise-free value's expected electron
-   * count, not from the count recorded, so no weight depends on the
-   * camera's draw (a value recorded low otherwise gets a small error and a
-   * large weight). A real camera records only the count. */
+  /* A diagnostic of the weights' and the mask's own bias: the camera part
+   * of each simulated value's standard error from its noise-free value's
+   * expected electron count, not from the count recorded, and min_snr's
+   * test on the noise-free value, so neither a weight nor the mask depends
+   * on the camera's draw (otherwise a value recorded low gets a small error
+   * and a large weight, and of the dim values the test keeps those
+   * recorded high). A real camera records only the count. */
   bool expected_camera_errors;
   /* The Monte Carlo part of each simulated value's variance pooled over
    * its neighbours (recon_pool_errors): the value times the variance-to-
