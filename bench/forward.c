@@ -41,31 +41,12 @@
  * batches per emitter (default 64).
  *
  * --write-het-field FILE writes A1-het's voxel field for a peer and exits
- * (nothing is rendered): the σa and σs that hetinv traces for --case a1-het,
- * laid out as mcxyz (Jacques' voxel Monte Carlo, bench/peers_mcxyz.sh)
- * indexes its voxels, so that both codes trace the same medium:
- *   - 2·100³ IEEE-754 doubles, little-endian, no header (16 000 000 bytes):
- *     all σa first, then all σs;
- *   - in cm⁻¹, mcxyz's unit: hetinv's value in mm⁻¹ times 10 (that one
- *     rounding, at most half an ulp, is the only change to the values);
- *   - mcxyz's order: element iz·Ny·Nx + ix·Ny + iy (y fastest, then x, then
- *     depth), where mcxyz's depth axis points into the medium from the lit
- *     face: mcxyz voxel (ix, iy, iz) is hetinv voxel (ix, iy, 99 - iz), i.e.
- *     x' = x - 5 mm, y' = y - 5 mm, z' = 10 mm - z (the beam at x' = y' = 0
- *     on z' = 0, pointing to +z'). A mirror image, which transport with the
- *     Henyey-Greenstein phase function does not see.
- * The file is written beside FILE under a temporary name and renamed onto
- * FILE only once complete: on any failure (no such directory, a FILE that
- * exists but is not a writable regular file, disk full) the message names
- * FILE and the cause, the exit status is 1, and FILE is left as it was. One line on success:
- *   het_field file=FILE voxels=1000000 bytes=16000000 order=mcxyz units=1/cm
- *             sigma_a_mean=M sigma_s_mean=S
+ * (nothing is rendered; bench/het_field.h says its layout).
  *
  * This is a benchmark, not a test: it exits non-zero only when the
  * library reports an error.
  */
 #include <errno.h>
-#include <fcntl.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdbool.h>
@@ -73,11 +54,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <time.h>
-#include <unistd.h>
 
 #include "a1_scene.h"
+#include "het_field.h"
 
 #define DEFAULT_PHOTONS 1000000.0
 
@@ -208,131 +188,6 @@ static bool bench_het_ratio(double photons, int repeat) {
   return ok;
 }
 
-/* Writes n doubles little-endian; false on a short write (errno set). */
-static bool write_le_doubles(FILE *f, const double *v, size_t n) {
-  unsigned char buf[8 * 512];
-  size_t used = 0;
-  for (size_t i = 0; i < n; ++i) {
-    uint64_t bits;
-    memcpy(&bits, &v[i], sizeof bits);
-    for (int b = 0; b < 8; ++b) buf[used++] = (unsigned char)(bits >> (8 * b));
-    if (used == sizeof buf || i + 1 == n) {
-      if (fwrite(buf, 1, used, f) != used) return false;
-      used = 0;
-    }
-  }
-  return true;
-}
-
-/* --write-het-field: A1-het's σa and σs in mcxyz's voxel order and unit (see
- * the header comment), through a temporary file renamed onto path. */
-static int write_het_field(const char *path) {
-  static const char *const me = "hetinv-bench-forward: --write-het-field";
-  /* An existing FILE must be a regular file that we may write: rename
-   * would replace a device, a link or a read-only file regardless. */
-  struct stat st;
-  if (lstat(path, &st) == 0) {
-    if (!S_ISREG(st.st_mode)) {
-      fprintf(stderr, "%s %s: %s\n", me, path,
-              S_ISDIR(st.st_mode)   ? "is a directory"
-              : S_ISLNK(st.st_mode) ? "is a symbolic link (give its target)"
-                                    : "exists and is not a regular file");
-      return 1;
-    }
-    if (access(path, W_OK) != 0) {
-      fprintf(stderr, "%s %s: not writable: %s\n", me, path, strerror(errno));
-      return 1;
-    }
-  } else if (errno != ENOENT) {
-    fprintf(stderr, "%s %s: %s\n", me, path, strerror(errno));
-    return 1;
-  }
-  scene_t s;
-  if (!scene_create(CASE_A1_HET, 1, 1.0, &s)) return 1;
-  int32_t dims[3];
-  const double *sa = hetinv_medium_grid(s.medium, HETINV_PARAM_SIGMA_A);
-  const double *ss = hetinv_medium_grid(s.medium, HETINV_PARAM_SIGMA_S);
-  if (!check(hetinv_medium_get_dims(s.medium, dims), s.ctx, "get_dims") || !sa || !ss) {
-    scene_destroy(&s);
-    return 1;
-  }
-  const size_t nx = (size_t)dims[0], ny = (size_t)dims[1], nz = (size_t)dims[2];
-  const size_t n = nx * ny * nz;
-  double *out = malloc(2 * n * sizeof *out);
-  if (!out) {
-    fprintf(stderr, "%s %s: out of memory\n", me, path);
-    scene_destroy(&s);
-    return 1;
-  }
-  /* mcxyz (ix, iy, iz) at iz·ny·nx + ix·ny + iy is hetinv (ix, iy, nz-1-iz)
-   * at ix + nx·(iy + ny·(nz-1-iz)); 10 × mm⁻¹ = cm⁻¹. */
-  double sum_a = 0.0, sum_s = 0.0;
-  for (size_t iz = 0; iz < nz; ++iz) {
-    for (size_t ix = 0; ix < nx; ++ix) {
-      for (size_t iy = 0; iy < ny; ++iy) {
-        size_t m = iz * ny * nx + ix * ny + iy, h = ix + nx * (iy + ny * (nz - 1 - iz));
-        out[m] = 10.0 * sa[h];
-        out[n + m] = 10.0 * ss[h];
-        sum_a += out[m];
-        sum_s += out[n + m];
-      }
-    }
-  }
-  scene_destroy(&s);
-
-  size_t len = strlen(path);
-  char *tmp = malloc(len + sizeof ".tmp.XXXXXX");
-  if (!tmp) {
-    fprintf(stderr, "%s %s: out of memory\n", me, path);
-    free(out);
-    return 1;
-  }
-  memcpy(tmp, path, len);
-  memcpy(tmp + len, ".tmp.XXXXXX", sizeof ".tmp.XXXXXX");
-  int fd = mkstemp(tmp);
-  if (fd < 0) {
-    fprintf(stderr, "%s %s: cannot create a file there: %s\n", me, path, strerror(errno));
-    free(tmp);
-    free(out);
-    return 1;
-  }
-  mode_t mask = umask(0);
-  umask(mask);
-  (void)fchmod(fd, (mode_t)(0666 & ~mask)); /* mkstemp's 0600 would outlive the rename */
-  FILE *f = fdopen(fd, "wb");
-  const char *failed = NULL;
-  int err = 0;
-  if (!f) {
-    failed = "cannot open";
-    err = errno;
-    close(fd);
-  } else {
-    if (!write_le_doubles(f, out, 2 * n)) {
-      failed = "write failed";
-      err = errno;
-    }
-    if (fclose(f) != 0 && !failed) {
-      failed = "write failed";
-      err = errno;
-    }
-  }
-  if (!failed && rename(tmp, path) != 0) {
-    failed = "cannot rename the complete file onto it";
-    err = errno;
-  }
-  if (failed) {
-    fprintf(stderr, "%s %s: %s: %s\n", me, path, failed, strerror(err));
-    remove(tmp);
-  } else {
-    printf("het_field file=%s voxels=%zu bytes=%zu order=mcxyz units=1/cm sigma_a_mean=%.6f "
-           "sigma_s_mean=%.6f\n",
-           path, n, 2 * n * sizeof(double), sum_a / (double)n, sum_s / (double)n);
-  }
-  free(tmp);
-  free(out);
-  return failed ? 1 : 0;
-}
-
 static void usage(FILE *f) {
   fprintf(f,
           "usage: hetinv-bench-forward [--photons N] [--case a1|a1-eta|a1-het|all] [--repeat R]\n"
@@ -424,7 +279,7 @@ int main(int argc, char **argv) {
       return 2;
     }
   }
-  if (field_path) return write_het_field(field_path);
+  if (field_path) return het_field_write(field_path);
   if (het_ratio) return bench_het_ratio(photons, (int)repeat) ? 0 : 1;
   for (int c = first; c <= last; ++c) {
     bool ok = only_threads > 0
