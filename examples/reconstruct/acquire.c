@@ -67,16 +67,22 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
   double *clean = calloc(n, sizeof *clean), *v = calloc(n, sizeof *v);
   double *se = calloc(n, sizeof *se), *w = calloc(n, sizeof *w), *mc = calloc(n, sizeof *mc);
   uint8_t *mask = calloc(n, 1);
+  /* expected_camera_errors' noise-free reference: the data's own render, or
+   * with independent_errors the second one, so that nothing the weights
+   * and the mask read comes from the data's draw. */
+  const bool second_reference = sc->expected_camera_errors && sc->independent_errors;
+  double *reference = second_reference ? calloc(n, sizeof *reference) : clean;
   hetinv_estimator_t *est = NULL;
-  hetinv_result_t r = clean && v && se && w && mc && mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  hetinv_result_t r = clean && v && se && w && mc && mask && reference ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
   if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)sc->truth_photons);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, RECON_TRUTH_STREAM);
   if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, clean, mc, NULL, n);
   if (r == HETINV_SUCCESS && sc->independent_errors) {
-    /* mc from the second render; its values (in v for now) are not used. */
+    /* mc from the second render; its values (in v for now) are used only
+     * as the reference above. */
     r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, RECON_ERRORS_STREAM);
-    if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, v, mc, NULL, n);
+    if (r == HETINV_SUCCESS) r = hetinv_estimator_render(est, truth, im->set, second_reference ? reference : v, mc, NULL, n);
   }
   int32_t rows = hetinv_measurements_row_count(im->set);
   for (int32_t row = 0; r == HETINV_SUCCESS && row < rows; ++row) {
@@ -110,7 +116,7 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
       /* The library's error is the recorded count's; this one the expected count's. */
       double read_variance = model.read_noise * model.read_noise;
       for (size_t i = 0; i < len; ++i) {
-        se[off + i] = sqrt(fmax(exposure * clean[off + i], 0.0) + read_variance) / exposure;
+        se[off + i] = sqrt(fmax(exposure * reference[off + i], 0.0) + read_variance) / exposure;
       }
     }
     /* The clean values are themselves a Monte Carlo render: its error is
@@ -126,11 +132,12 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
     }
   }
   if (r == HETINV_SUCCESS) {
-    /* The diagnostic leaves values out by their noise-free value too: a
-     * test of the recorded value keeps the dim ones the camera recorded
+    /* The diagnostic leaves values out by their noise-free reference too:
+     * a test of the recorded value keeps the dim ones the camera recorded
      * high (at 20 expected electrons and read noise 5, those kept average
-     * 26 % above their expectation). */
-    recon_mask_unresolved(sc->expected_camera_errors ? clean : v, se, mask, n, sc->min_snr);
+     * 26 % above their expectation), and a test of the data's own render
+     * the dim ones its photons made bright. */
+    recon_mask_unresolved(sc->expected_camera_errors ? reference : v, se, mask, n, sc->min_snr);
     /* The residual weighting's render variance: the optimizer renders
      * sc->photons per source where the data had truth_photons, so its
      * Monte Carlo variance is the data's scaled by their ratio. mc is no
@@ -149,6 +156,7 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
   free(se);
   free(w);
   free(mc);
+  if (reference != clean) free(reference);
   free(mask);
   return r;
 }

@@ -95,7 +95,9 @@ typedef struct recon_scene {
    * test on the noise-free value, so neither a weight nor the mask depends
    * on the camera's draw (otherwise a value recorded low gets a small error
    * and a large weight, and of the dim values the test keeps those
-   * recorded high). A real camera records only the count. */
+   * recorded high). With independent_errors the noise-free value is the
+   * second render's, so that neither depends on the data's Monte Carlo
+   * draw either. A real camera records only the count. */
   bool expected_camera_errors;
   /* The Monte Carlo part of each simulated value's variance pooled over
    * its neighbours (recon_pool_errors): the value times the variance-to-
