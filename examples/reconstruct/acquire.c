@@ -128,7 +128,8 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
      * steady-state rows stand in for them. */
     if (r == HETINV_SUCCESS && sc->config == RECON_COMBINED && bins > 1) {
       double floor_value = sc->snr_threshold * model.read_noise / exposure;
-      for (size_t i = 0; i < len; ++i) mask[off + i] = clean[off + i] * 1.0 > floor_value;
+      const double *level = sc->expected_camera_errors ? reference : clean; /* as min_snr's test below */
+      for (size_t i = 0; i < len; ++i) mask[off + i] = level[off + i] * 1.0 > floor_value;
     }
   }
   if (r == HETINV_SUCCESS) {
