@@ -92,7 +92,9 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
     size_t len = (size_t)pixels * (size_t)bins;
     double exposure = 0.0;
     for (size_t i = 0; i < len; ++i) mask[off + i] = 1;
-    if (sc->pooled_errors && (r = recon_pool_errors(clean + off, mc + off, pixels, bins)) != HETINV_SUCCESS) break;
+    /* Pooled at the reference's values: with a second render, the pooled
+     * error of a value that came out low is not lowered with it. */
+    if (sc->pooled_errors && (r = recon_pool_errors(reference + off, mc + off, pixels, bins)) != HETINV_SUCCESS) break;
     if (!sc->noise) {
       memcpy(v + off, clean + off, len * sizeof *v);
       memcpy(se + off, mc + off, len * sizeof *se);

@@ -97,7 +97,8 @@ typedef struct recon_scene {
    * and a large weight, and of the dim values the test keeps those
    * recorded high). With independent_errors the noise-free value is the
    * second render's, so that neither depends on the data's Monte Carlo
-   * draw either. A real camera records only the count. */
+   * draw either, and pooled_errors pools at its values. A real camera
+   * records only the count. */
   bool expected_camera_errors;
   /* The Monte Carlo part of each simulated value's variance pooled over
    * its neighbours (recon_pool_errors): the value times the variance-to-
