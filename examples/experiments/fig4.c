@@ -74,8 +74,9 @@
  * the mean of its whole path); --loss-clip C makes the loss Huber's, each
  * value's residual counting linearly beyond C of its standard errors
  * (estimator.loss_clip; default with --full 10, and 30 for (1) and (3),
- * 0 = least squares, the reduced default); --smoothness L adds a smoothness prior of weight L in
- * the loss's units (optimizer.smoothness; default 0, none); --multiscale A
+ * 0 = least squares, the reduced default); --smoothness L adds a
+ * smoothness prior of weight L in the loss's units (optimizer.smoothness;
+ * default 0, none); --multiscale A
  * adds A times each coarser block's mean gradient to every entry's
  * (optimizer.multiscale; default 1 with --full, 0 reduced); --truth-photons N
  * renders the simulated measurements with N photons per source
