@@ -101,6 +101,12 @@ void hv_ckpt_fingerprint(const hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *f
   h = hv_ckpt_fnv1a(h, set->values, n * sizeof(double));
   h = hv_ckpt_fnv1a(h, set->weights, n * sizeof(double));
   h = hv_ckpt_fnv1a(h, set->mask, n);
+  /* The clip's scales join the hash only where one differs from 1, so a
+   * set without them hashes as before they existed. */
+  for (size_t i = 0; i < n; ++i) {
+    uint64_t at = i;
+    if (set->clip_scales[i] != 1.0) h = hv_ckpt_fnv1a(hv_ckpt_fnv1a(h, &at, sizeof at), &set->clip_scales[i], sizeof(double));
+  }
   f->set_hash = h;
   h = HV_CKPT_FNV_OFFSET;
   size_t v = hetinv_medium_voxel_count(opt->initial);
@@ -116,7 +122,7 @@ const char *hv_ckpt_fingerprint_diff(const hv_ckpt_fingerprint_t *a, const hv_ck
              (unsigned long long)b->value_count, (unsigned long long)b->rows);
     return msg;
   }
-  if (a->set_hash != b->set_hash) return "the measured values, weights or mask differ";
+  if (a->set_hash != b->set_hash) return "the measured values, weights, clip scales or mask differ";
   if (a->medium_hash != b->medium_hash) return "the initial medium differs";
   if (a->seed != b->seed) return "the context's seed differs";
   if (a->stages != b->stages) {

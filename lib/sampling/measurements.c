@@ -25,6 +25,7 @@ static void free_arrays(hetinv_measurements_t *m) {
   hv_free(m->ctx, m->values);
   hv_free(m->ctx, m->std_errors);
   hv_free(m->ctx, m->weights);
+  hv_free(m->ctx, m->clip_scales);
   hv_free(m->ctx, m->mask);
 }
 
@@ -39,7 +40,7 @@ HETINV_API void hetinv_measurements_destroy(hetinv_measurements_t **set) {
 }
 
 /* Grows the value arrays to hold at least @p need values (new ones: value 0,
- * error 0, weight 1, used). */
+ * error 0, weight 1, clip scale 1, used). */
 static hetinv_result_t reserve_values(hetinv_measurements_t *m, size_t need) {
   if (need <= m->value_capacity) return HETINV_SUCCESS;
   size_t cap = m->value_capacity ? m->value_capacity : 64;
@@ -47,19 +48,21 @@ static hetinv_result_t reserve_values(hetinv_measurements_t *m, size_t need) {
   double *v = hv_calloc(m->ctx, cap, sizeof(double));
   double *e = hv_calloc(m->ctx, cap, sizeof(double));
   double *w = hv_calloc(m->ctx, cap, sizeof(double));
+  double *c = hv_calloc(m->ctx, cap, sizeof(double));
   uint8_t *k = hv_calloc(m->ctx, cap, 1);
-  if (!v || !e || !w || !k) {
-    hv_free(m->ctx, v), hv_free(m->ctx, e), hv_free(m->ctx, w), hv_free(m->ctx, k);
+  if (!v || !e || !w || !c || !k) {
+    hv_free(m->ctx, v), hv_free(m->ctx, e), hv_free(m->ctx, w), hv_free(m->ctx, c), hv_free(m->ctx, k);
     return HV_FAIL(m->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu values", cap);
   }
   if (m->value_count > 0) {
     memcpy(v, m->values, m->value_count * sizeof(double));
     memcpy(e, m->std_errors, m->value_count * sizeof(double));
     memcpy(w, m->weights, m->value_count * sizeof(double));
+    memcpy(c, m->clip_scales, m->value_count * sizeof(double));
     memcpy(k, m->mask, m->value_count);
   }
   free_arrays(m);
-  m->values = v, m->std_errors = e, m->weights = w, m->mask = k;
+  m->values = v, m->std_errors = e, m->weights = w, m->clip_scales = c, m->mask = k;
   m->value_capacity = cap;
   return HETINV_SUCCESS;
 }
@@ -110,6 +113,7 @@ HETINV_API hetinv_result_t hetinv_measurements_add(hetinv_measurements_t *set,
   if (r != HETINV_SUCCESS) return r;
   for (size_t i = set->value_count; i < total; ++i) {
     set->weights[i] = 1.0;
+    set->clip_scales[i] = 1.0;
     set->mask[i] = 1;
   }
   if (set->row_count == 0) set->geo = emitter->geo;
@@ -204,6 +208,25 @@ HETINV_API hetinv_result_t hetinv_measurements_set_weights(hetinv_measurements_t
   return r;
 }
 
+HETINV_API hetinv_result_t hetinv_measurements_set_clip_scales(hetinv_measurements_t *set,
+                                                               const double *scales, size_t count) {
+  HV_API_ENTER();
+  HV_CHECK_NULL(NULL, set);
+  HV_CHECK_NULL(set->ctx, scales);
+  hetinv_result_t r = check_array(set, "scales", scales, count, true);
+  for (size_t i = 0; r == HETINV_SUCCESS && i < count; ++i) {
+    if (scales[i] == 0.0) {
+      int row, pixel, bin;
+      locate(set, i, &row, &pixel, &bin);
+      r = HV_FAIL(set->ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                  "scales[%zu] (row %d, pixel %d, bin %d) is 0; it must be > 0 (a weight of 0 leaves a value out)",
+                  i, row, pixel, bin);
+    }
+  }
+  if (r == HETINV_SUCCESS && count > 0) memcpy(set->clip_scales, scales, count * sizeof(double));
+  return r;
+}
+
 HETINV_API hetinv_result_t hetinv_measurements_set_mask(hetinv_measurements_t *set,
                                                         const uint8_t *mask, size_t count) {
   HV_API_ENTER();
@@ -246,6 +269,10 @@ HETINV_API const double *hetinv_measurements_std_errors(const hetinv_measurement
 HETINV_API const double *hetinv_measurements_weights(const hetinv_measurements_t *set) {
   HV_API_ENTER();
   return set && set->value_count ? set->weights : NULL;
+}
+HETINV_API const double *hetinv_measurements_clip_scales(const hetinv_measurements_t *set) {
+  HV_API_ENTER();
+  return set && set->value_count ? set->clip_scales : NULL;
 }
 HETINV_API const uint8_t *hetinv_measurements_mask(const hetinv_measurements_t *set) {
   HV_API_ENTER();

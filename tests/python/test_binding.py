@@ -269,6 +269,11 @@ class Objects(unittest.TestCase):
         self.assertEqual(list(ms.std_errors), [0.1] * 13)
         self.assertEqual(list(ms.weights), [2.0] * 13)
         self.assertEqual(list(ms.mask), [1] * 12 + [0])
+        self.assertEqual(list(ms.clip_scales), [1.0] * 13)
+        ms.set_clip_scales([3.0] * 13)
+        self.assertEqual(list(ms.clip_scales), [3.0] * 13)
+        with self.assertRaisesRegex(hetinv.InvalidArgumentError, "scales\\[0\\].*must be > 0"):
+            ms.set_clip_scales([0.0] * 13)
         with self.assertRaisesRegex(hetinv.OutOfRangeError, "hetinv_measurements_row_layout"):
             ms.layout(5)
         with self.assertRaisesRegex(hetinv.InvalidArgumentError, "hetinv_measurements_set_values"):

@@ -2,8 +2,8 @@
  * (HETINV_ESTIMATOR_LOSS_CLIP): 0 is least squares bit for bit; with a clip
  * c each value's term is w·r² within c standard errors and 2·c·√w·|r| − c²
  * beyond, and the gradient is exactly hetinv_estimator_gradient() on the
- * next stream with the clipped cotangent; the same under a fitted gain; and
- * the tunable's errors. The checks are exact on one random stream: the
+ * next stream with the clipped cotangent; the same under a fitted gain;
+ * per-value clip scales; and the tunable's and the scales' errors. The checks are exact on one random stream: the
  * loss's render is the `rendered` output, so the terms are known to
  * rounding. */
 #include <math.h>
@@ -162,6 +162,72 @@ static void clip_applies_to_the_residuals_at_the_fitted_gain(void **state) {
   scene_release(&s);
 }
 
+/* Per-value clip scales: a value of scale s is clipped at c·s of its
+ * standard errors, on the plain loss and at a fitted gain; all-1 scales are
+ * the default bit for bit. Value 0 (40σ off) escapes the clip of 3 at
+ * scale 20, value 4 (60σ off) stays clipped at scale 10. */
+static void clip_scales_multiply_each_values_clip(void **state) {
+  (void)state;
+  for (int gain = 0; gain < 2; ++gain) {
+    scene_t s;
+    scene_init(&s);
+    double m[VALUES], w[VALUES];
+    set_measured(&s, m, w);
+    if (gain) assert_ok(hetinv_estimator_set_gain_mode(s.est, HETINV_GAIN_GLOBAL));
+    const double c = 3.0;
+    assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, c));
+    const double *got = hetinv_measurements_clip_scales(s.set);
+    for (int n = 0; n < VALUES; ++n) assert_true(got[n] == 1.0);
+    double loss1, g1[24];
+    assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss1, NULL, g1, s.k));
+    const double ones[VALUES] = {1, 1, 1, 1, 1}, scale[VALUES] = {20, 1, 0.5, 1, 10};
+    assert_ok(hetinv_measurements_set_clip_scales(s.set, ones, VALUES));
+    double loss, ren[VALUES], grad[24], k = 1.0;
+    assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss, NULL, grad, s.k));
+    assert_memory_equal(&loss1, &loss, sizeof loss);
+    assert_memory_equal(g1, grad, sizeof g1);
+    assert_ok(hetinv_measurements_set_clip_scales(s.set, scale, VALUES));
+    assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss, ren, grad, s.k));
+    if (gain) assert_ok(hetinv_estimator_get_gains(s.est, &k, 1, NULL));
+    double expect = 0.0, cot[VALUES];
+    int clipped = 0;
+    for (int n = 0; n < VALUES; ++n) {
+      double slope, r = k * ren[n] - m[n];
+      expect += huber(w[n], r, c * scale[n], &slope);
+      cot[n] = k * slope;
+      clipped += fabs(slope) < fabs(2.0 * w[n] * r);
+    }
+    if (!gain) assert_int_equal(clipped, 1); /* the fitted gain moves every residual */
+    assert_close(expect, loss, 1e-12 * expect);
+    double direct[24];
+    assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_STREAM, 22));
+    assert_ok(hetinv_estimator_gradient(s.est, s.medium, s.set, cot, VALUES, s.map, direct, NULL, s.k));
+    for (size_t i = 0; i < s.k; ++i) assert_close(direct[i], grad[i], 1e-12 * fabs(direct[i]) + 1e-300);
+    scene_release(&s);
+  }
+}
+
+static void bad_clip_scales_get_precise_errors(void **state) {
+  (void)state;
+  scene_t s;
+  scene_init(&s);
+  double scale[VALUES] = {1, 2, 0, 1, 1};
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, VALUES));
+  assert_message_contains("scales[2]");
+  assert_message_contains("is 0; it must be > 0");
+  scale[2] = -1.0;
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, VALUES));
+  assert_message_contains("scales[2]");
+  scale[2] = INFINITY;
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, VALUES));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, VALUES - 1));
+  assert_message_contains("count is 4; the set has 5 values");
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, NULL, VALUES));
+  const double *got = hetinv_measurements_clip_scales(s.set);
+  for (int n = 0; n < VALUES; ++n) assert_true(got[n] == 1.0); /* nothing changed */
+  scene_release(&s);
+}
+
 static void bad_clips_get_precise_errors(void **state) {
   (void)state;
   scene_t s;
@@ -187,6 +253,8 @@ int main(void) {
       cmocka_unit_test(clipped_loss_and_gradient_are_the_huber_terms),
       cmocka_unit_test(masked_values_stay_out),
       cmocka_unit_test(clip_applies_to_the_residuals_at_the_fitted_gain),
+      cmocka_unit_test(clip_scales_multiply_each_values_clip),
+      cmocka_unit_test(bad_clip_scales_get_precise_errors),
       cmocka_unit_test(bad_clips_get_precise_errors),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

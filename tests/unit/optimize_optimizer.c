@@ -1388,6 +1388,14 @@ static void resume_refuses_another_configuration(void **state) {
   hetinv_optimizer_destroy(&opt);
   values[1] /= 1.01;
   assert_ok(hetinv_measurements_set_values(p->set, values, NULL, p->count));
+  /* The loss clip's scales; set back to 1 they hash as a set that never had any. */
+  for (size_t i = 0; i < p->count; ++i) values[i] = i == 1 ? 2.0 : 1.0;
+  assert_ok(hetinv_measurements_set_clip_scales(p->set, values, p->count));
+  opt = make_optimizer(p, &s);
+  expect_refused(opt, path, "clip scales");
+  hetinv_optimizer_destroy(&opt);
+  values[1] = 1.0;
+  assert_ok(hetinv_measurements_set_clip_scales(p->set, values, p->count));
   free(values);
   /* Initial medium. */
   hetinv_medium_t *other = make_medium(p->ctx, p->dims, 7.0);

@@ -105,11 +105,13 @@ PROTOTYPES = {
     "hetinv_measurements_row_layout": (_R, [_vp, _i32, c_size_t_p, c_int32_p, c_int32_p]),
     "hetinv_measurements_set_values": (_R, [_vp, c_double_p, c_double_p, _sz]),
     "hetinv_measurements_set_weights": (_R, [_vp, c_double_p, _sz]),
+    "hetinv_measurements_set_clip_scales": (_R, [_vp, c_double_p, _sz]),
     "hetinv_measurements_set_mask": (_R, [_vp, c_uint8_p, _sz]),
     "hetinv_measurements_mask_saturated": (_R, [_vp, _d, c_size_t_p]),
     "hetinv_measurements_values": (c_double_p, [_vp]),
     "hetinv_measurements_std_errors": (c_double_p, [_vp]),
     "hetinv_measurements_weights": (c_double_p, [_vp]),
+    "hetinv_measurements_clip_scales": (c_double_p, [_vp]),
     "hetinv_measurements_mask": (c_uint8_p, [_vp]),
     # estimator.h
     "hetinv_estimator_create": (_R, [_vp, c_void_pp]),

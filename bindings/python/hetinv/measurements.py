@@ -114,6 +114,13 @@ class Measurements(Handle):
         check(lib.measurements_set_weights(self._ptr, w.ptr, w.count))
         return self
 
+    def set_clip_scales(self, scales):
+        """scales: value_count numbers > 0 by which Huber's clip
+        (Estimator loss_clip) of each value is multiplied (default 1)."""
+        c = _arrays.to_c(scales, "d", name="scales")
+        check(lib.measurements_set_clip_scales(self._ptr, c.ptr, c.count))
+        return self
+
     def set_mask(self, mask):
         """mask: value_count truthy/falsy items (0 = left out of the loss)."""
         if not hasattr(mask, "dtype") and not isinstance(mask, (bytes, bytearray)):
@@ -148,6 +155,10 @@ class Measurements(Handle):
     @property
     def weights(self):
         return self._copy(lib.measurements_weights, "d")
+
+    @property
+    def clip_scales(self):
+        return self._copy(lib.measurements_clip_scales, "d")
 
     @property
     def mask(self):
