@@ -67,6 +67,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->loss_clip != 0.0) {
     key_append(key, key_size, " loss_clip=%.17g", sc->loss_clip);
   }
+  if (sc->loss_clip_errors != RECON_CLIP_DATA) {
+    key_append(key, key_size, " loss_clip_errors=%s", recon_clip_errors_names[sc->loss_clip_errors]);
+  }
   if (sc->epsilon_start != 0.0) {
     key_append(key, key_size, " epsilon_start=%.17g", sc->epsilon_start);
   }

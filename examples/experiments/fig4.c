@@ -8,8 +8,8 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
- *               [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]
- *               [--expected-camera-errors] [--residual-weights]
+ *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual]
+ *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--truth-photons N]
  *               [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
@@ -74,7 +74,10 @@
  * the mean of its whole path); --loss-clip C makes the loss Huber's, each
  * value's residual counting linearly beyond C of its standard errors
  * (estimator.loss_clip; default with --full 10, and 30 for (1) and (3),
- * 0 = least squares, the reduced default); --smoothness L adds a
+ * 0 = least squares, the reduced default); --loss-clip-errors residual
+ * counts C in standard errors of the residual, the data's noise and the
+ * optimizer's render's Monte Carlo noise at --photons, instead of the
+ * data's (estimator.loss_clip_errors; default data); --smoothness L adds a
  * smoothness prior of weight L in the loss's units (optimizer.smoothness;
  * default 0, none); --multiscale A
  * adds A times each coarser block's mean gradient to every entry's

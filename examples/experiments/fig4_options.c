@@ -12,7 +12,8 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-window N] [--loss-clip C] [--independent-errors] [--pooled-errors]\n"
+          "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual]\n"
+          "                   [--independent-errors] [--pooled-errors]\n"
           "                   [--expected-camera-errors] [--residual-weights]\n"
           "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"
           "                   [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]\n"
@@ -32,7 +33,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .truth_photons = -1, .coarse_window = -1,
       .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4,
       .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .epsilon_start = -1.0,
-      .loss_clip = -1.0, .smoothness = -1.0, .multiscale = -1.0,
+      .loss_clip = -1.0, .loss_clip_errors = -1, .smoothness = -1.0, .multiscale = -1.0,
       .coordinates = -1,
   };
   for (int i = 1; i < argc; ++i) {
@@ -124,6 +125,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       o->expected_camera_errors = true;
     } else if (strcmp(a, "--residual-weights") == 0) {
       o->residual_weights = true;
+    } else if (strcmp(a, "--loss-clip-errors") == 0) {
+      if (recon_parse_choice("hetinv-fig4", a, next, recon_clip_errors_names, &o->loss_clip_errors) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--loss-clip") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &o->loss_clip) < 0) return 2;
       ++i;
@@ -180,6 +184,7 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
   if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;
   if (o->loss_clip >= 0.0) sc->loss_clip = o->loss_clip;
+  if (o->loss_clip_errors >= 0) sc->loss_clip_errors = o->loss_clip_errors;
   if (o->smoothness >= 0.0) sc->smoothness = o->smoothness;
   if (o->multiscale >= 0.0) sc->multiscale = o->multiscale;
   if (o->truth_photons > 0) sc->truth_photons = o->truth_photons;

@@ -18,7 +18,7 @@ typedef struct fig4_options {
   int64_t iterations, photons, minibatch, grid, threads, truth_photons, coarse_window;
   int64_t bound_photons, bound_replicates, fit_photons, fit_replicates;
   double scale, epsilon, min_snr, decay, epsilon_start, loss_clip, smoothness, multiscale;
-  int coordinates;
+  int coordinates, loss_clip_errors;
 } fig4_options_t;
 
 /* Reads argv into *o: 0 to run, 1 if it printed the help, 2 after printing

@@ -141,15 +141,24 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
      * 26 % above their expectation), and a test of the data's own render
      * the dim ones its photons made bright. */
     recon_mask_unresolved(sc->expected_camera_errors ? reference : v, se, mask, n, sc->min_snr);
-    /* The residual weighting's render variance: the optimizer renders
-     * sc->photons per source where the data had truth_photons, so its
-     * Monte Carlo variance is the data's scaled by their ratio. mc is no
-     * longer needed as such and holds it. */
+    /* The residual's render variance: the optimizer renders sc->photons
+     * per source where the data had truth_photons, so its Monte Carlo
+     * variance is the data's scaled by their ratio. mc is no longer needed
+     * as such and holds it. */
     double scale = (double)sc->truth_photons / (double)sc->photons;
-    bool residual = sc->weighting == RECON_WEIGHT_RESIDUAL;
-    for (size_t i = 0; residual && i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
+    bool residual = sc->weighting == RECON_WEIGHT_RESIDUAL, clip_residual = sc->loss_clip_errors == RECON_CLIP_RESIDUAL;
+    for (size_t i = 0; (residual || clip_residual) && i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
     recon_set_weights(sc->weighting, v, se, residual ? mc : NULL, w, n);
     r = hetinv_measurements_set_values(im->set, v, se, n);
+    /* The clip in the residual's standard errors, sqrt(se² + render
+     * variance), instead of the data's se. */
+    if (r == HETINV_SUCCESS && clip_residual) {
+      double *scales = malloc(n * sizeof *scales);
+      if (scales == NULL) r = HETINV_ERROR_OUT_OF_MEMORY;
+      for (size_t i = 0; scales && i < n; ++i) scales[i] = se[i] > 0.0 ? sqrt(1.0 + mc[i] / (se[i] * se[i])) : 1.0;
+      if (r == HETINV_SUCCESS) r = hetinv_measurements_set_clip_scales(im->set, scales, n);
+      free(scales);
+    }
   }
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, w, n);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
@@ -164,19 +173,30 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
   return r;
 }
 
-static const char *const CHANNELS[4] = {"value", "std_error", "weight", "mask"};
+/* The fifth, the loss clip's scales, is written only where one differs from 1. */
+static const char *const CHANNELS[5] = {"value", "std_error", "weight", "mask", "clip_scale"};
+
+bool recon_has_clip_scales(const hetinv_measurements_t *set) {
+  size_t n = hetinv_measurements_value_count(set);
+  const double *s = hetinv_measurements_clip_scales(set);
+  for (size_t i = 0; i < n; ++i) {
+    if (s[i] != 1.0) return true;
+  }
+  return false;
+}
 
 hetinv_result_t recon_measurements_write(hetinv_context_t *ctx, const recon_imaging_t *im, const char *path) {
   size_t n = hetinv_measurements_value_count(im->set);
-  hetinv_image_t *img = NULL;
-  hetinv_result_t r = hetinv_image_create(ctx, (int32_t)n, 1, 4, &img);
-  const double *src[3] = {hetinv_measurements_values(im->set), hetinv_measurements_std_errors(im->set),
-                          hetinv_measurements_weights(im->set)};
+  const double *src[5] = {hetinv_measurements_values(im->set), hetinv_measurements_std_errors(im->set),
+                          hetinv_measurements_weights(im->set), NULL, hetinv_measurements_clip_scales(im->set)};
   const uint8_t *mask = hetinv_measurements_mask(im->set);
-  for (int c = 0; r == HETINV_SUCCESS && c < 4; ++c) {
+  int channels = recon_has_clip_scales(im->set) ? 5 : 4;
+  hetinv_image_t *img = NULL;
+  hetinv_result_t r = hetinv_image_create(ctx, (int32_t)n, 1, channels, &img);
+  for (int c = 0; r == HETINV_SUCCESS && c < channels; ++c) {
     r = hetinv_image_set_channel_name(img, c, CHANNELS[c]);
     float *dst = hetinv_image_channel_data(img, c);
-    for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) dst[i] = c < 3 ? (float)src[c][i] : (float)mask[i];
+    for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) dst[i] = c != 3 ? (float)src[c][i] : (float)mask[i];
   }
   if (r == HETINV_SUCCESS) r = hetinv_image_set_attribute_string(img, "hetinv:content", "measurement set values");
   if (r == HETINV_SUCCESS) r = hetinv_image_set_attribute_int(img, "hetinv:rows", hetinv_measurements_row_count(im->set));
@@ -211,22 +231,28 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
       return HETINV_ERROR_INVALID_ARGUMENT;
     }
   }
+  int32_t scale_ch = -1; /* optional: all 1 without it */
+  if (hetinv_image_find_channel(img, CHANNELS[4], &scale_ch) != HETINV_SUCCESS) scale_ch = -1;
   double *v = calloc(n, sizeof *v), *se = calloc(n, sizeof *se), *wt = calloc(n, sizeof *wt);
+  double *cs = calloc(n, sizeof *cs);
   uint8_t *mask = calloc(n, 1);
-  r = v && se && wt && mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  r = v && se && wt && cs && mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
   for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) {
     v[i] = hetinv_image_channel_data(img, ch[0])[i];
     se[i] = hetinv_image_channel_data(img, ch[1])[i];
     wt[i] = hetinv_image_channel_data(img, ch[2])[i];
     mask[i] = hetinv_image_channel_data(img, ch[3])[i] != 0.0f;
+    cs[i] = scale_ch >= 0 ? (double)hetinv_image_channel_data(img, scale_ch)[i] : 1.0;
   }
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_values(im->set, v, se, n);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, wt, n);
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_clip_scales(im->set, cs, n);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
   if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
   free(v);
   free(se);
   free(wt);
+  free(cs);
   free(mask);
   hetinv_image_destroy(&img);
   return r;

@@ -130,10 +130,11 @@ static double loss_term(double w, double r, double s, double clip) {
 static double run_loss(const hetinv_measurements_t *set, const double *rendered, const double *se, double clip) {
   size_t n = hetinv_measurements_value_count(set);
   const double *data = hetinv_measurements_values(set), *w = hetinv_measurements_weights(set);
+  const double *scale = hetinv_measurements_clip_scales(set);
   const uint8_t *mask = hetinv_measurements_mask(set);
   double sum = 0.0;
   for (size_t i = 0; i < n; ++i) {
-    if (mask[i] && w[i] > 0.0) sum += loss_term(w[i], rendered[i] - data[i], se[i], clip);
+    if (mask[i] && w[i] > 0.0) sum += loss_term(w[i], rendered[i] - data[i], se[i], clip * scale[i]);
   }
   return sum;
 }

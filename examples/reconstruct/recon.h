@@ -30,6 +30,7 @@ enum { RECON_TRUTH_MIXTURE, RECON_TRUTH_SMOKE, RECON_TRUTH_VOL };
 /* RESIDUAL: 1/variance of the loss's residual, the data's noise plus the
  * optimizer's render's Monte Carlo variance (simulated data only). */
 enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM, RECON_WEIGHT_RESIDUAL };
+enum { RECON_CLIP_DATA, RECON_CLIP_RESIDUAL };
 
 /* Photons of the simulated data come from their own stream, so the
  * optimizer never reuses the paths that made its data. */
@@ -40,6 +41,7 @@ enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM, RECON
 /* The JSON names of the weightings, optimizer methods and coordinates, in
  * the order of their enums; NULL-terminated. */
 extern const char *const recon_weighting_names[];
+extern const char *const recon_clip_errors_names[];
 extern const char *const recon_method_names[];
 extern const char *const recon_coordinate_names[];
 
@@ -129,6 +131,8 @@ typedef struct recon_scene {
   int64_t photons;
   int32_t batches;
   double loss_clip; /* Huber's clip in standard errors (HETINV_ESTIMATOR_LOSS_CLIP); 0: least squares */
+  int loss_clip_errors; /* RECON_CLIP_DATA: the clip counts the data's standard errors; RECON_CLIP_RESIDUAL:
+                         * the residual's (the data's and the render's Monte Carlo noise at sc->photons) */
   /* Optimizer. */
   int method;
   int coordinates; /* enum hetinv_coordinates_id */
@@ -244,6 +248,8 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *scene
  * "std_error", "weight", "mask", and attributes naming the layout. */
 hetinv_result_t recon_measurements_write(hetinv_context_t *ctx, const recon_imaging_t *im,
                                          const char *path);
+/* Whether any of the set's clip scales differs from 1. */
+bool recon_has_clip_scales(const hetinv_measurements_t *set);
 hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *im,
                                         const char *path, char *msg, size_t msg_size);
 

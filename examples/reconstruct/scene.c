@@ -13,6 +13,7 @@ static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
 
 /* The JSON names of the enums, in their order (preset.c writes them). */
 const char *const recon_weighting_names[] = {"variance", "relative", "uniform", "residual", NULL};
+const char *const recon_clip_errors_names[] = {"data", "residual", NULL};
 const char *const recon_method_names[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
 const char *const recon_coordinate_names[] = {"native", "reduced", "log", "log-reduced", NULL};
 
@@ -475,13 +476,21 @@ static int parse_root(jr_t *jrp, cJSON *root, recon_scene_t *sc, char *msg, size
   if (rc == 0) rc = read_imaging(&jr, root, sc);
   const cJSON *e = NULL;
   if (rc == 0 && jr_object(&jr, root, "", "estimator", JR_OPTIONAL, &e) < 0) rc = -1;
-  static const char *const est_allowed[] = {"photons", "batches", "loss_clip", NULL};
+  static const char *const est_allowed[] = {"photons", "batches", "loss_clip", "loss_clip_errors", NULL};
   if (rc == 0 && e && jr_check_object(&jr, e, "estimator", est_allowed) < 0) rc = -1;
   if (rc == 0 && e && jr_integer(&jr, e, "estimator", "photons", JR_OPTIONAL, 1, (int64_t)1 << 40, &sc->photons) < 0) rc = -1;
   if (rc == 0 && e && read_int32(&jr, e, "estimator", "batches", 2, 65536, &sc->batches) < 0) rc = -1;
   if (rc == 0 && e && jr_number(&jr, e, "estimator", "loss_clip", JR_OPTIONAL, &sc->loss_clip) < 0) rc = -1;
   if (rc == 0 && !(sc->loss_clip >= 0.0 && sc->loss_clip <= 1e6)) {
     rc = jr_fail(&jr, "estimator.loss_clip", "is %g; expected a number from 0 (least squares) to 1e6", sc->loss_clip);
+  }
+  if (rc == 0 && e &&
+      jr_choice(&jr, e, "estimator", "loss_clip_errors", JR_OPTIONAL, recon_clip_errors_names, &sc->loss_clip_errors) < 0) {
+    rc = -1;
+  }
+  if (rc == 0 && sc->loss_clip_errors == RECON_CLIP_RESIDUAL && sc->render_scene[0] != '\0') {
+    rc = jr_fail(&jr, "estimator.loss_clip_errors", "\"residual\" needs simulated data (the render's variance "
+                                                     "at the data's photons); from files use \"data\"");
   }
   if (rc == 0) rc = read_optimizer(&jr, root, sc);
   if (rc != 0) snprintf(msg, msg_size, "%s", jr.message);
