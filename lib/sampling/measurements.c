@@ -161,20 +161,24 @@ static void locate(const hetinv_measurements_t *m, size_t i, int *row, int *pixe
   *bin = (int)(k / (size_t)m->rows[r].pixels);
 }
 
-/* Checks count and that every value is finite (and ≥ 0 if @p nonneg). */
+/* What check_array() accepts beyond finite values. */
+typedef enum { ANY_FINITE, NONNEGATIVE, POSITIVE } sign_t;
+
+/* Checks count and that every value is finite and of the sign asked. */
 static hetinv_result_t check_array(const hetinv_measurements_t *m,
-                                   const char *what, const double *a, size_t count, bool nonneg) {
+                                   const char *what, const double *a, size_t count, sign_t sign) {
   if (count != m->value_count) {
     return HV_FAIL(m->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "count is %zu; the set has %zu values", count, m->value_count);
   }
   for (size_t i = 0; i < count; ++i) {
-    if (!isfinite(a[i]) || (nonneg && a[i] < 0.0)) {
+    if (!isfinite(a[i]) || (sign == NONNEGATIVE && a[i] < 0.0) || (sign == POSITIVE && !(a[i] > 0.0))) {
       int row, pixel, bin;
       locate(m, i, &row, &pixel, &bin);
+      static const char *const limit[] = {"", " and >= 0", " and > 0"};
       return HV_FAIL(m->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                      "%s[%zu] (row %d, pixel %d, bin %d) is %g; it must be finite%s", what, i,
-                     row, pixel, bin, a[i], nonneg ? " and >= 0" : "");
+                     row, pixel, bin, a[i], limit[sign]);
     }
   }
   return HETINV_SUCCESS;
@@ -186,8 +190,8 @@ HETINV_API hetinv_result_t hetinv_measurements_set_values(hetinv_measurements_t 
   HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
   HV_CHECK_NULL(set->ctx, values);
-  hetinv_result_t r = check_array(set, "values", values, count, false);
-  if (r == HETINV_SUCCESS && std_errors) r = check_array(set, "std_errors", std_errors, count, true);
+  hetinv_result_t r = check_array(set, "values", values, count, ANY_FINITE);
+  if (r == HETINV_SUCCESS && std_errors) r = check_array(set, "std_errors", std_errors, count, NONNEGATIVE);
   if (r != HETINV_SUCCESS || count == 0) return r;
   memcpy(set->values, values, count * sizeof(double));
   if (std_errors) {
@@ -203,7 +207,7 @@ HETINV_API hetinv_result_t hetinv_measurements_set_weights(hetinv_measurements_t
   HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
   HV_CHECK_NULL(set->ctx, weights);
-  hetinv_result_t r = check_array(set, "weights", weights, count, true);
+  hetinv_result_t r = check_array(set, "weights", weights, count, NONNEGATIVE);
   if (r == HETINV_SUCCESS && count > 0) memcpy(set->weights, weights, count * sizeof(double));
   return r;
 }
@@ -213,16 +217,7 @@ HETINV_API hetinv_result_t hetinv_measurements_set_clip_scales(hetinv_measuremen
   HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
   HV_CHECK_NULL(set->ctx, scales);
-  hetinv_result_t r = check_array(set, "scales", scales, count, true);
-  for (size_t i = 0; r == HETINV_SUCCESS && i < count; ++i) {
-    if (scales[i] == 0.0) {
-      int row, pixel, bin;
-      locate(set, i, &row, &pixel, &bin);
-      r = HV_FAIL(set->ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                  "scales[%zu] (row %d, pixel %d, bin %d) is 0; it must be > 0 (a weight of 0 leaves a value out)",
-                  i, row, pixel, bin);
-    }
-  }
+  hetinv_result_t r = check_array(set, "scales", scales, count, POSITIVE);
   if (r == HETINV_SUCCESS && count > 0) memcpy(set->clip_scales, scales, count * sizeof(double));
   return r;
 }

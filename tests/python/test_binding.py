@@ -272,7 +272,7 @@ class Objects(unittest.TestCase):
         self.assertEqual(list(ms.clip_scales), [1.0] * 13)
         ms.set_clip_scales([3.0] * 13)
         self.assertEqual(list(ms.clip_scales), [3.0] * 13)
-        with self.assertRaisesRegex(hetinv.InvalidArgumentError, "scales\\[0\\].*must be > 0"):
+        with self.assertRaisesRegex(hetinv.InvalidArgumentError, "scales\\[0\\].*must be finite and > 0"):
             ms.set_clip_scales([0.0] * 13)
         with self.assertRaisesRegex(hetinv.OutOfRangeError, "hetinv_measurements_row_layout"):
             ms.layout(5)
