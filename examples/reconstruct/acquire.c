@@ -150,12 +150,15 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
     for (size_t i = 0; (residual || clip_residual) && i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
     recon_set_weights(sc->weighting, v, se, residual ? mc : NULL, w, n);
     r = hetinv_measurements_set_values(im->set, v, se, n);
-    /* The clip in the residual's standard errors, sqrt(se² + render
-     * variance), instead of the data's se. */
+    /* The clip at c residual standard errors, c·sqrt(se² + render
+     * variance), whatever the weighting: the library clips at c·s/√w. */
     if (r == HETINV_SUCCESS && clip_residual) {
       double *scales = malloc(n * sizeof *scales);
       if (scales == NULL) r = HETINV_ERROR_OUT_OF_MEMORY;
-      for (size_t i = 0; scales && i < n; ++i) scales[i] = se[i] > 0.0 ? sqrt(1.0 + mc[i] / (se[i] * se[i])) : 1.0;
+      for (size_t i = 0; scales && i < n; ++i) {
+        double s = sqrt(w[i] * (se[i] * se[i] + mc[i]));
+        scales[i] = s > 0.0 && isfinite(s) ? s : 1.0; /* a value of weight 0 is not in the loss */
+      }
       if (r == HETINV_SUCCESS) r = hetinv_measurements_set_clip_scales(im->set, scales, n);
       free(scales);
     }
