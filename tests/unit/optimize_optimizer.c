@@ -927,6 +927,31 @@ static void minibatches_are_reproducible(void **state) {
   problem_release(&b);
 }
 
+/* A minibatch keeps its values' clip scales: at a clip of 10⁻³ standard
+ * errors every value is clipped, and with every scale 10⁹ none is, so the
+ * loss is least squares' again, bit for bit. */
+static void minibatches_keep_the_clip_scales(void **state) {
+  (void)state;
+  problem_t a;
+  problem_init(&a, 11, 2, 2, 4, false);
+  setup_t s = coarse_setup(&a);
+  s.minibatch = 2;
+  s.iterations[0] = 2;
+  outcome_t *x = calloc(3, sizeof *x);
+  reference_run(&a, &s, 1, &x[0]);
+  assert_ok(hetinv_estimator_set_param(a.est, HETINV_ESTIMATOR_LOSS_CLIP, 1e-3));
+  reference_run(&a, &s, 1, &x[1]);
+  assert_true(x[1].losses[0] < 0.5 * x[0].losses[0]);
+  double *scales = malloc(a.count * sizeof *scales);
+  for (size_t i = 0; i < a.count; ++i) scales[i] = 1e9;
+  assert_ok(hetinv_measurements_set_clip_scales(a.set, scales, a.count));
+  reference_run(&a, &s, 1, &x[2]);
+  assert_same_outcome(&x[0], &x[2]);
+  free(scales);
+  free(x);
+  problem_release(&a);
+}
+
 /* ------------------------------------------------------------------------ */
 /* 5. Stopping rules and progress. */
 
@@ -2134,6 +2159,7 @@ int main(void) {
       cmocka_unit_test(frozen_entries_never_move),
       cmocka_unit_test(masked_values_give_no_gradient),
       cmocka_unit_test(minibatches_are_reproducible),
+      cmocka_unit_test(minibatches_keep_the_clip_scales),
       cmocka_unit_test(stages_run_their_counts_with_right_progress),
       cmocka_unit_test(iterations_default_is_100),
       cmocka_unit_test(a_plateau_ends_a_stage_early),
