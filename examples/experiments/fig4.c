@@ -8,7 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
- *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual]
+ *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--truth-photons N]
  *               [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]
@@ -77,7 +77,8 @@
  * 0 = least squares, the reduced default); --loss-clip-errors residual
  * counts C in standard errors of the residual, the data's noise and the
  * optimizer's render's Monte Carlo noise at --photons, instead of the
- * data's (estimator.loss_clip_errors; default data); --smoothness L adds a
+ * data's, and residual_above does so only where the render is above the
+ * data (estimator.loss_clip_errors; default data); --smoothness L adds a
  * smoothness prior of weight L in the loss's units (optimizer.smoothness;
  * default 0, none); --multiscale A
  * adds A times each coarser block's mean gradient to every entry's

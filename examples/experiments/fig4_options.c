@@ -12,7 +12,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual]\n"
+          "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]\n"
           "                   [--independent-errors] [--pooled-errors]\n"
           "                   [--expected-camera-errors] [--residual-weights]\n"
           "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"

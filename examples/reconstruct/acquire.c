@@ -146,12 +146,14 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
      * variance is the data's scaled by their ratio. mc is no longer needed
      * as such and holds it. */
     double scale = (double)sc->truth_photons / (double)sc->photons;
-    bool residual = sc->weighting == RECON_WEIGHT_RESIDUAL, clip_residual = sc->loss_clip_errors == RECON_CLIP_RESIDUAL;
+    bool residual = sc->weighting == RECON_WEIGHT_RESIDUAL, clip_residual = sc->loss_clip_errors != RECON_CLIP_DATA;
     for (size_t i = 0; (residual || clip_residual) && i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
     recon_set_weights(sc->weighting, v, se, residual ? mc : NULL, w, n);
     r = hetinv_measurements_set_values(im->set, v, se, n);
     /* The clip at c residual standard errors, c·sqrt(se² + render
-     * variance), whatever the weighting: the library clips at c·s/√w. */
+     * variance), whatever the weighting (the library clips at c·s/√w): on
+     * both sides, or only where the render is above the data, the side of
+     * its own rare bright paths (the data's fall below). */
     if (r == HETINV_SUCCESS && clip_residual) {
       double *scales = malloc(n * sizeof *scales);
       if (scales == NULL) r = HETINV_ERROR_OUT_OF_MEMORY;
@@ -159,7 +161,8 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
         double s = sqrt(w[i] * (se[i] * se[i] + mc[i]));
         scales[i] = s > 0.0 && isfinite(s) ? s : 1.0; /* a value of weight 0 is not in the loss */
       }
-      if (r == HETINV_SUCCESS) r = hetinv_measurements_set_clip_scales(im->set, scales, n);
+      const double *below = sc->loss_clip_errors == RECON_CLIP_RESIDUAL ? scales : NULL;
+      if (r == HETINV_SUCCESS) r = hetinv_measurements_set_clip_scales(im->set, below, scales, n);
       free(scales);
     }
   }
@@ -176,24 +179,25 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
   return r;
 }
 
-/* The fifth, the loss clip's scales, is written only where one differs from 1. */
-static const char *const CHANNELS[5] = {"value", "std_error", "weight", "mask", "clip_scale"};
+/* The last two, the loss clip's scales, are written only where one differs from 1. */
+static const char *const CHANNELS[6] = {"value", "std_error", "weight", "mask", "clip_scale_below", "clip_scale_above"};
 
 bool recon_has_clip_scales(const hetinv_measurements_t *set) {
   size_t n = hetinv_measurements_value_count(set);
-  const double *s = hetinv_measurements_clip_scales(set);
+  const double *b = hetinv_measurements_clip_scales_below(set), *a = hetinv_measurements_clip_scales_above(set);
   for (size_t i = 0; i < n; ++i) {
-    if (s[i] != 1.0) return true;
+    if (b[i] != 1.0 || a[i] != 1.0) return true;
   }
   return false;
 }
 
 hetinv_result_t recon_measurements_write(hetinv_context_t *ctx, const recon_imaging_t *im, const char *path) {
   size_t n = hetinv_measurements_value_count(im->set);
-  const double *src[5] = {hetinv_measurements_values(im->set), hetinv_measurements_std_errors(im->set),
-                          hetinv_measurements_weights(im->set), NULL, hetinv_measurements_clip_scales(im->set)};
+  const double *src[6] = {hetinv_measurements_values(im->set), hetinv_measurements_std_errors(im->set),
+                          hetinv_measurements_weights(im->set), NULL, hetinv_measurements_clip_scales_below(im->set),
+                          hetinv_measurements_clip_scales_above(im->set)};
   const uint8_t *mask = hetinv_measurements_mask(im->set);
-  int channels = recon_has_clip_scales(im->set) ? 5 : 4;
+  int channels = recon_has_clip_scales(im->set) ? 6 : 4;
   hetinv_image_t *img = NULL;
   hetinv_result_t r = hetinv_image_create(ctx, (int32_t)n, 1, channels, &img);
   for (int c = 0; r == HETINV_SUCCESS && c < channels; ++c) {
@@ -234,10 +238,12 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
       return HETINV_ERROR_INVALID_ARGUMENT;
     }
   }
-  int32_t scale_ch = -1; /* optional: all 1 without it */
-  if (hetinv_image_find_channel(img, CHANNELS[4], &scale_ch) != HETINV_SUCCESS) scale_ch = -1;
+  int32_t scale_ch[2] = {-1, -1}; /* optional: all 1 without them */
+  for (int c = 0; c < 2; ++c) {
+    if (hetinv_image_find_channel(img, CHANNELS[4 + c], &scale_ch[c]) != HETINV_SUCCESS) scale_ch[c] = -1;
+  }
   double *v = calloc(n, sizeof *v), *se = calloc(n, sizeof *se), *wt = calloc(n, sizeof *wt);
-  double *cs = calloc(n, sizeof *cs);
+  double *cs = calloc(2 * n, sizeof *cs); /* below, then above */
   uint8_t *mask = calloc(n, 1);
   r = v && se && wt && cs && mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
   for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) {
@@ -245,11 +251,13 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
     se[i] = hetinv_image_channel_data(img, ch[1])[i];
     wt[i] = hetinv_image_channel_data(img, ch[2])[i];
     mask[i] = hetinv_image_channel_data(img, ch[3])[i] != 0.0f;
-    cs[i] = scale_ch >= 0 ? (double)hetinv_image_channel_data(img, scale_ch)[i] : 1.0;
+    for (int c = 0; c < 2; ++c) {
+      cs[c * n + i] = scale_ch[c] >= 0 ? (double)hetinv_image_channel_data(img, scale_ch[c])[i] : 1.0;
+    }
   }
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_values(im->set, v, se, n);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, wt, n);
-  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_clip_scales(im->set, cs, n);
+  if (r == HETINV_SUCCESS) r = hetinv_measurements_set_clip_scales(im->set, cs, cs + n, n);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
   if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
   free(v);

@@ -5,7 +5,8 @@
  * library clips at c·s/√w. Run A uses the variance weighting (w = 1/σ²) and
  * run B, of the same data, the residual weighting (w = 1/(σ² + σ_R²)), so
  * s_A = sqrt(w_A / w_B) (to the files' float rounding) wherever w_A > 0,
- * and every s_A ≥ 1.
+ * and every s_A ≥ 1. Both sides are checked ("clip_scale_below" and
+ * "clip_scale_above"; run A uses "residual", which scales both).
  *
  *   usage: hetinv-clip-scales-check A/measurements.exr B/measurements.exr
  *
@@ -45,7 +46,8 @@ int main(int argc, char **argv) {
   hetinv_image_t *a = NULL, *b = NULL;
   int status = 1;
   size_t n = 0, nb = 0, checked = 0;
-  const float *scale = channel(ctx, argv[1], &a, "clip_scale", &n);
+  const float *below = channel(ctx, argv[1], &a, "clip_scale_below", &n);
+  const float *scale = below ? channel(ctx, argv[1], &a, "clip_scale_above", &n) : NULL;
   const float *wa = scale ? channel(ctx, argv[1], &a, "weight", &n) : NULL;
   const float *wb = wa ? channel(ctx, argv[2], &b, "weight", &nb) : NULL;
   if (wb && nb != n) fprintf(stderr, "hetinv-clip-scales-check: %zu values in %s, %zu in %s\n", n, argv[1], nb, argv[2]);
@@ -53,10 +55,10 @@ int main(int argc, char **argv) {
   if (wb && nb == n) status = 0;
   for (size_t i = 0; i < n && status == 0; ++i) {
     double s = scale[i], expect = wa[i] > 0.0f && wb[i] > 0.0f ? sqrt((double)wa[i] / (double)wb[i]) : 1.0;
-    bool ok = s >= 1.0 && fabs(s - expect) <= 1e-6 * expect;
+    bool ok = s >= 1.0 && fabs(s - expect) <= 1e-6 * expect && below[i] == scale[i];
     if (!ok) {
-      fprintf(stderr, "hetinv-clip-scales-check: value %zu: clip_scale %.9g; weights %.9g and %.9g give %.9g\n", i, s,
-              (double)wa[i], (double)wb[i], expect);
+      fprintf(stderr, "hetinv-clip-scales-check: value %zu: clip_scale_above %.9g (below %.9g); weights %.9g and %.9g "
+                      "give %.9g\n", i, s, (double)below[i], (double)wa[i], (double)wb[i], expect);
       status = 1;
     }
     checked += s > 1.0;

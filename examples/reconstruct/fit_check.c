@@ -127,14 +127,20 @@ static double loss_term(double w, double r, double s, double clip) {
   return clip > 0.0 && z > clip ? 2.0 * clip * z - clip * clip : z * z - w * s * s;
 }
 
+/* The clip of value i on the side of its residual r (the set's scales). */
+static double clip_of(const hetinv_measurements_t *set, size_t i, double r, double clip) {
+  const double *scale = r > 0.0 ? hetinv_measurements_clip_scales_above(set) : hetinv_measurements_clip_scales_below(set);
+  return clip * scale[i];
+}
+
 static double run_loss(const hetinv_measurements_t *set, const double *rendered, const double *se, double clip) {
   size_t n = hetinv_measurements_value_count(set);
   const double *data = hetinv_measurements_values(set), *w = hetinv_measurements_weights(set);
-  const double *scale = hetinv_measurements_clip_scales(set);
   const uint8_t *mask = hetinv_measurements_mask(set);
   double sum = 0.0;
   for (size_t i = 0; i < n; ++i) {
-    if (mask[i] && w[i] > 0.0) sum += loss_term(w[i], rendered[i] - data[i], se[i], clip * scale[i]);
+    double r = rendered[i] - data[i];
+    if (mask[i] && w[i] > 0.0) sum += loss_term(w[i], r, se[i], clip_of(set, i, r, clip));
   }
   return sum;
 }

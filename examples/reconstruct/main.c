@@ -243,10 +243,10 @@ static int run(int argc, char **argv, outdir_t *dir) {
     if (recon_measurements_read(ctx, &im, sc.measurements, msg, sizeof msg) != HETINV_SUCCESS) {
       fprintf(stderr, "hetinv-reconstruct: measurements: %s\n", msg);
       status = 1;
-    } else if (sc.loss_clip_errors == RECON_CLIP_RESIDUAL && !recon_has_clip_scales(im.set)) {
-      fprintf(stderr, "hetinv-reconstruct: measurements: %s has no \"clip_scale\" channel; "
-                      "estimator.loss_clip_errors \"residual\" needs one (written by a run that used it)\n",
-              sc.measurements);
+    } else if (sc.loss_clip_errors != RECON_CLIP_DATA && !recon_has_clip_scales(im.set)) {
+      fprintf(stderr, "hetinv-reconstruct: measurements: %s has no clip scale channels; "
+                      "estimator.loss_clip_errors \"%s\" needs them (written by a run that used it)\n",
+              sc.measurements, recon_clip_errors_names[sc.loss_clip_errors]);
       status = 1;
     }
   } else if (status == 0) {

@@ -30,7 +30,7 @@ enum { RECON_TRUTH_MIXTURE, RECON_TRUTH_SMOKE, RECON_TRUTH_VOL };
 /* RESIDUAL: 1/variance of the loss's residual, the data's noise plus the
  * optimizer's render's Monte Carlo variance (simulated data only). */
 enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM, RECON_WEIGHT_RESIDUAL };
-enum { RECON_CLIP_DATA, RECON_CLIP_RESIDUAL };
+enum { RECON_CLIP_DATA, RECON_CLIP_RESIDUAL, RECON_CLIP_RESIDUAL_ABOVE };
 
 /* Photons of the simulated data come from their own stream, so the
  * optimizer never reuses the paths that made its data. */
@@ -132,7 +132,9 @@ typedef struct recon_scene {
   int32_t batches;
   double loss_clip; /* Huber's clip in standard errors (HETINV_ESTIMATOR_LOSS_CLIP); 0: least squares */
   int loss_clip_errors; /* RECON_CLIP_DATA: the clip counts the data's standard errors; RECON_CLIP_RESIDUAL:
-                         * the residual's (the data's and the render's Monte Carlo noise at sc->photons) */
+                         * the residual's (the data's and the render's Monte Carlo noise at sc->photons);
+                         * RECON_CLIP_RESIDUAL_ABOVE: the residual's where the render is above the data,
+                         * the data's below */
   /* Optimizer. */
   int method;
   int coordinates; /* enum hetinv_coordinates_id */

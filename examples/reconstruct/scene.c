@@ -13,7 +13,7 @@ static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
 
 /* The JSON names of the enums, in their order (preset.c writes them). */
 const char *const recon_weighting_names[] = {"variance", "relative", "uniform", "residual", NULL};
-const char *const recon_clip_errors_names[] = {"data", "residual", NULL};
+const char *const recon_clip_errors_names[] = {"data", "residual", "residual_above", NULL};
 const char *const recon_method_names[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
 const char *const recon_coordinate_names[] = {"native", "reduced", "log", "log-reduced", NULL};
 
@@ -488,9 +488,9 @@ static int parse_root(jr_t *jrp, cJSON *root, recon_scene_t *sc, char *msg, size
       jr_choice(&jr, e, "estimator", "loss_clip_errors", JR_OPTIONAL, recon_clip_errors_names, &sc->loss_clip_errors) < 0) {
     rc = -1;
   }
-  if (rc == 0 && sc->loss_clip_errors == RECON_CLIP_RESIDUAL && sc->render_scene[0] != '\0') {
-    rc = jr_fail(&jr, "estimator.loss_clip_errors", "\"residual\" needs simulated data (the render's variance "
-                                                     "at the data's photons); from files use \"data\"");
+  if (rc == 0 && sc->loss_clip_errors != RECON_CLIP_DATA && sc->render_scene[0] != '\0') {
+    rc = jr_fail(&jr, "estimator.loss_clip_errors", "\"%s\" needs simulated data (the render's variance "
+                 "at the data's photons); from files use \"data\"", recon_clip_errors_names[sc->loss_clip_errors]);
   }
   if (rc == 0) rc = read_optimizer(&jr, root, sc);
   if (rc != 0) snprintf(msg, msg_size, "%s", jr.message);

@@ -120,24 +120,31 @@ HETINV_API hetinv_result_t hetinv_measurements_set_weights(hetinv_measurements_t
                                                            const double *weights, size_t count);
 
 /**
- * @brief Set per-value scales of HETINV_ESTIMATOR_LOSS_CLIP (default 1).
+ * @brief Set per-value scales of HETINV_ESTIMATOR_LOSS_CLIP (default 1),
+ *        one for each side of the residual.
  *
- * Huber's clip c of a value of weight w then starts at |r| = c·s/√w
- * instead of c/√w. Use it to count c in standard errors of the residual
- * rather than of the data: a model rendered with fewer photons than the
- * data adds its own Monte Carlo variance v_model to the residual's, and
- * s = sqrt(1 + w·v_model) (w = 1/variance) keeps the clip from cutting
- * the render's own noise. That noise is skewed (a dim value is usually a
- * little low and now and then far too high), so a clip that cuts it
- * cuts one tail and biases the gradient. Without HETINV_ESTIMATOR_LOSS_CLIP
- * the scales change nothing.
+ * Huber's clip c of a value of weight w and residual r = I − Ī then starts
+ * at r = −c·below/√w under the data and at r = c·above/√w over it, instead
+ * of ∓c/√w. Use it to count c in standard errors of the residual rather
+ * than of the data: a model rendered with fewer photons than the data
+ * adds its own Monte Carlo variance v_model to the residual's, and
+ * s = sqrt(1 + w·v_model) (w = 1/variance) keeps the clip from cutting the
+ * render's own noise. That noise is skewed: a dim value is usually a
+ * little low and now and then far too high, so a clip that cuts it cuts
+ * the side above the data and biases the gradient toward brighter
+ * renders. The data's own rare bright paths fall on the other side, below:
+ * setting s above and 1 below keeps them clipped at c of the data's
+ * errors. Without HETINV_ESTIMATOR_LOSS_CLIP the scales change nothing.
  * @param set the set.
- * @param scales @p count finite values > 0. Copied.
+ * @param below @p count finite values > 0 for residuals below the data
+ *        (r < 0), or NULL for 1. Copied.
+ * @param above the same for residuals above it (r > 0), or NULL for 1.
  * @param count must equal hetinv_measurements_value_count().
- * @return as hetinv_measurements_set_values().
+ * @return as hetinv_measurements_set_values() (a bad value is named by its
+ *         array, "below" or "above").
  */
-HETINV_API hetinv_result_t hetinv_measurements_set_clip_scales(hetinv_measurements_t *set,
-                                                               const double *scales, size_t count);
+HETINV_API hetinv_result_t hetinv_measurements_set_clip_scales(hetinv_measurements_t *set, const double *below,
+                                                               const double *above, size_t count);
 
 /**
  * @brief Set the mask: values whose mask byte is 0 are left out of the loss.
@@ -176,8 +183,10 @@ HETINV_API const double *hetinv_measurements_values(const hetinv_measurements_t 
 HETINV_API const double *hetinv_measurements_std_errors(const hetinv_measurements_t *set);
 /** @brief Weights, like hetinv_measurements_values(). */
 HETINV_API const double *hetinv_measurements_weights(const hetinv_measurements_t *set);
-/** @brief Scales of the loss's clip (all 1 unless set), like hetinv_measurements_values(). */
-HETINV_API const double *hetinv_measurements_clip_scales(const hetinv_measurements_t *set);
+/** @brief Scales of the loss's clip below the data (all 1 unless set), like hetinv_measurements_values(). */
+HETINV_API const double *hetinv_measurements_clip_scales_below(const hetinv_measurements_t *set);
+/** @brief Scales of the loss's clip above the data, like hetinv_measurements_clip_scales_below(). */
+HETINV_API const double *hetinv_measurements_clip_scales_above(const hetinv_measurements_t *set);
 /** @brief Mask bytes, like hetinv_measurements_values(). */
 HETINV_API const uint8_t *hetinv_measurements_mask(const hetinv_measurements_t *set);
 

@@ -132,7 +132,7 @@ hetinv_result_t hv_gain_fit(hetinv_estimator_t *est, const hv_pass_t *pass,
     for (int32_t i = 0; i < plan->range_count; ++i) {
       for (size_t n = plan->range_lo[i]; n < plan->range_hi[i]; ++n) {
         double w = set->mask[n] ? set->weights[n] : 0.0, slope;
-        sum += hv_loss_term(w, k * values[n] - set->values[n], clip * set->clip_scales[n], &slope);
+        sum += hv_loss_term(w, k * values[n] - set->values[n], clip, set->clip_below[n], set->clip_above[n], &slope);
         cot[n] = k * slope;
       }
     }

@@ -321,7 +321,7 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
       const double clip = estimator->param[HETINV_ESTIMATOR_LOSS_CLIP];
       for (size_t i = 0; i < n; ++i) {
         double w = set->mask[i] ? set->weights[i] : 0.0;
-        sum += hv_loss_term(w, values[i] - set->values[i], clip * set->clip_scales[i], &cot[i]);
+        sum += hv_loss_term(w, values[i] - set->values[i], clip, set->clip_below[i], set->clip_above[i], &cot[i]);
       }
     }
     if (r == HETINV_SUCCESS) {

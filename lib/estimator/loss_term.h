@@ -6,16 +6,18 @@
 
 #include <math.h>
 
-/* Weight w ≥ 0, residual r, clip c in standard errors (0: none). Returns
- * w·r² while √w·|r| ≤ c (or c = 0), 2·c·√w·|r| − c² beyond; *slope gets
- * the term's derivative in r, 2·w·r clipped at ±2·c·√w. */
-static inline double hv_loss_term(double w, double r, double clip, double *slope) {
+/* Weight w ≥ 0, residual r, clip c in standard errors (0: none), scaled
+ * by `below` where r < 0 and `above` where r > 0 (the set's clip scales).
+ * Returns w·r² while √w·|r| ≤ c·s (or c = 0), 2·c·s·√w·|r| − (c·s)² beyond;
+ * *slope gets the term's derivative in r, 2·w·r clipped at ±2·c·s·√w. */
+static inline double hv_loss_term(double w, double r, double clip, double below, double above, double *slope) {
   double wr = w * r;
   if (clip > 0.0) {
-    double bound = clip * sqrt(w); /* |r|·√w > c  ⇔  |w·r| > c·√w */
+    double c = clip * (r > 0.0 ? above : below);
+    double bound = c * sqrt(w); /* |r|·√w > c  ⇔  |w·r| > c·√w */
     if (wr > bound || wr < -bound) {
       *slope = wr > 0.0 ? 2.0 * bound : -2.0 * bound;
-      return 2.0 * bound * fabs(r) - clip * clip;
+      return 2.0 * bound * fabs(r) - c * c;
     }
   }
   *slope = 2.0 * wr;

@@ -104,10 +104,11 @@ void hv_ckpt_fingerprint(const hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *f
   /* The clip's scales join the hash only where one differs from 1, so a
    * set without them hashes as before they existed. */
   for (size_t i = 0; i < n; ++i) {
-    if (set->clip_scales[i] == 1.0) continue;
+    if (set->clip_below[i] == 1.0 && set->clip_above[i] == 1.0) continue;
     uint64_t at = i;
     h = hv_ckpt_fnv1a(h, &at, sizeof at);
-    h = hv_ckpt_fnv1a(h, &set->clip_scales[i], sizeof(double));
+    h = hv_ckpt_fnv1a(h, &set->clip_below[i], sizeof(double));
+    h = hv_ckpt_fnv1a(h, &set->clip_above[i], sizeof(double));
   }
   f->set_hash = h;
   h = HV_CKPT_FNV_OFFSET;

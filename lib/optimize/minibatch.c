@@ -119,7 +119,8 @@ hetinv_result_t hv_minibatch_set(const hetinv_optimizer_t *opt, const int32_t *p
         memcpy(sub->values + at, set->values + row->offset, len * sizeof(double));
         memcpy(sub->std_errors + at, set->std_errors + row->offset, len * sizeof(double));
         memcpy(sub->weights + at, set->weights + row->offset, len * sizeof(double));
-        memcpy(sub->clip_scales + at, set->clip_scales + row->offset, len * sizeof(double));
+        memcpy(sub->clip_below + at, set->clip_below + row->offset, len * sizeof(double));
+        memcpy(sub->clip_above + at, set->clip_above + row->offset, len * sizeof(double));
         for (size_t v = 0; v < len; ++v) {
           bool keep = set->mask[row->offset + v] && (value_mask == NULL || value_mask[row->offset + v]);
           sub->mask[at + v] = keep ? 1 : 0;

@@ -25,7 +25,8 @@ static void free_arrays(hetinv_measurements_t *m) {
   hv_free(m->ctx, m->values);
   hv_free(m->ctx, m->std_errors);
   hv_free(m->ctx, m->weights);
-  hv_free(m->ctx, m->clip_scales);
+  hv_free(m->ctx, m->clip_below);
+  hv_free(m->ctx, m->clip_above);
   hv_free(m->ctx, m->mask);
 }
 
@@ -40,7 +41,7 @@ HETINV_API void hetinv_measurements_destroy(hetinv_measurements_t **set) {
 }
 
 /* Grows the value arrays to hold at least @p need values (new ones: value 0,
- * error 0, weight 1, clip scale 1, used). */
+ * error 0, weight 1, clip scales 1, used). */
 static hetinv_result_t reserve_values(hetinv_measurements_t *m, size_t need) {
   if (need <= m->value_capacity) return HETINV_SUCCESS;
   size_t cap = m->value_capacity ? m->value_capacity : 64;
@@ -48,21 +49,25 @@ static hetinv_result_t reserve_values(hetinv_measurements_t *m, size_t need) {
   double *v = hv_calloc(m->ctx, cap, sizeof(double));
   double *e = hv_calloc(m->ctx, cap, sizeof(double));
   double *w = hv_calloc(m->ctx, cap, sizeof(double));
-  double *c = hv_calloc(m->ctx, cap, sizeof(double));
+  double *cb = hv_calloc(m->ctx, cap, sizeof(double));
+  double *ca = hv_calloc(m->ctx, cap, sizeof(double));
   uint8_t *k = hv_calloc(m->ctx, cap, 1);
-  if (!v || !e || !w || !c || !k) {
-    hv_free(m->ctx, v), hv_free(m->ctx, e), hv_free(m->ctx, w), hv_free(m->ctx, c), hv_free(m->ctx, k);
+  if (!v || !e || !w || !cb || !ca || !k) {
+    hv_free(m->ctx, v), hv_free(m->ctx, e), hv_free(m->ctx, w), hv_free(m->ctx, k);
+    hv_free(m->ctx, cb), hv_free(m->ctx, ca);
     return HV_FAIL(m->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu values", cap);
   }
   if (m->value_count > 0) {
     memcpy(v, m->values, m->value_count * sizeof(double));
     memcpy(e, m->std_errors, m->value_count * sizeof(double));
     memcpy(w, m->weights, m->value_count * sizeof(double));
-    memcpy(c, m->clip_scales, m->value_count * sizeof(double));
+    memcpy(cb, m->clip_below, m->value_count * sizeof(double));
+    memcpy(ca, m->clip_above, m->value_count * sizeof(double));
     memcpy(k, m->mask, m->value_count);
   }
   free_arrays(m);
-  m->values = v, m->std_errors = e, m->weights = w, m->clip_scales = c, m->mask = k;
+  m->values = v, m->std_errors = e, m->weights = w, m->mask = k;
+  m->clip_below = cb, m->clip_above = ca;
   m->value_capacity = cap;
   return HETINV_SUCCESS;
 }
@@ -113,7 +118,7 @@ HETINV_API hetinv_result_t hetinv_measurements_add(hetinv_measurements_t *set,
   if (r != HETINV_SUCCESS) return r;
   for (size_t i = set->value_count; i < total; ++i) {
     set->weights[i] = 1.0;
-    set->clip_scales[i] = 1.0;
+    set->clip_below[i] = set->clip_above[i] = 1.0;
     set->mask[i] = 1;
   }
   if (set->row_count == 0) set->geo = emitter->geo;
@@ -164,14 +169,15 @@ static void locate(const hetinv_measurements_t *m, size_t i, int *row, int *pixe
 /* What check_array() accepts beyond finite values. */
 typedef enum { ANY_FINITE, NONNEGATIVE, POSITIVE } sign_t;
 
-/* Checks count and that every value is finite and of the sign asked. */
+/* Checks count and that every value of a (if not NULL) is finite and of
+ * the sign asked. */
 static hetinv_result_t check_array(const hetinv_measurements_t *m,
                                    const char *what, const double *a, size_t count, sign_t sign) {
   if (count != m->value_count) {
     return HV_FAIL(m->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "count is %zu; the set has %zu values", count, m->value_count);
   }
-  for (size_t i = 0; i < count; ++i) {
+  for (size_t i = 0; a && i < count; ++i) {
     if (!isfinite(a[i]) || (sign == NONNEGATIVE && a[i] < 0.0) || (sign == POSITIVE && !(a[i] > 0.0))) {
       int row, pixel, bin;
       locate(m, i, &row, &pixel, &bin);
@@ -212,13 +218,16 @@ HETINV_API hetinv_result_t hetinv_measurements_set_weights(hetinv_measurements_t
   return r;
 }
 
-HETINV_API hetinv_result_t hetinv_measurements_set_clip_scales(hetinv_measurements_t *set,
-                                                               const double *scales, size_t count) {
+HETINV_API hetinv_result_t hetinv_measurements_set_clip_scales(hetinv_measurements_t *set, const double *below,
+                                                               const double *above, size_t count) {
   HV_API_ENTER();
   HV_CHECK_NULL(NULL, set);
-  HV_CHECK_NULL(set->ctx, scales);
-  hetinv_result_t r = check_array(set, "scales", scales, count, POSITIVE);
-  if (r == HETINV_SUCCESS && count > 0) memcpy(set->clip_scales, scales, count * sizeof(double));
+  hetinv_result_t r = check_array(set, "below", below, count, POSITIVE);
+  if (r == HETINV_SUCCESS) r = check_array(set, "above", above, count, POSITIVE);
+  for (size_t i = 0; r == HETINV_SUCCESS && i < count; ++i) {
+    set->clip_below[i] = below ? below[i] : 1.0;
+    set->clip_above[i] = above ? above[i] : 1.0;
+  }
   return r;
 }
 
@@ -265,9 +274,13 @@ HETINV_API const double *hetinv_measurements_weights(const hetinv_measurements_t
   HV_API_ENTER();
   return set && set->value_count ? set->weights : NULL;
 }
-HETINV_API const double *hetinv_measurements_clip_scales(const hetinv_measurements_t *set) {
+HETINV_API const double *hetinv_measurements_clip_scales_below(const hetinv_measurements_t *set) {
   HV_API_ENTER();
-  return set && set->value_count ? set->clip_scales : NULL;
+  return set && set->value_count ? set->clip_below : NULL;
+}
+HETINV_API const double *hetinv_measurements_clip_scales_above(const hetinv_measurements_t *set) {
+  HV_API_ENTER();
+  return set && set->value_count ? set->clip_above : NULL;
 }
 HETINV_API const uint8_t *hetinv_measurements_mask(const hetinv_measurements_t *set) {
   HV_API_ENTER();

@@ -23,7 +23,7 @@ struct hetinv_measurements {
   hv_row_t *rows;
   size_t value_count, value_capacity;
   double *values, *std_errors, *weights;
-  double *clip_scales; /* HETINV_ESTIMATOR_LOSS_CLIP's, 1 unless set */
+  double *clip_below, *clip_above; /* HETINV_ESTIMATOR_LOSS_CLIP's scales for r < 0 and r > 0, 1 unless set */
   uint8_t *mask;
 };
 

@@ -269,10 +269,13 @@ class Objects(unittest.TestCase):
         self.assertEqual(list(ms.std_errors), [0.1] * 13)
         self.assertEqual(list(ms.weights), [2.0] * 13)
         self.assertEqual(list(ms.mask), [1] * 12 + [0])
-        self.assertEqual(list(ms.clip_scales), [1.0] * 13)
-        ms.set_clip_scales([3.0] * 13)
-        self.assertEqual(list(ms.clip_scales), [3.0] * 13)
-        with self.assertRaisesRegex(hetinv.InvalidArgumentError, "scales\\[0\\].*must be finite and > 0"):
+        self.assertEqual(list(ms.clip_scales_below), [1.0] * 13)
+        ms.set_clip_scales(above=[3.0] * 13)
+        self.assertEqual(list(ms.clip_scales_below), [1.0] * 13)
+        self.assertEqual(list(ms.clip_scales_above), [3.0] * 13)
+        ms.set_clip_scales([2.0] * 13, [4.0] * 13)
+        self.assertEqual((ms.clip_scales_below[0], ms.clip_scales_above[12]), (2.0, 4.0))
+        with self.assertRaisesRegex(hetinv.InvalidArgumentError, "below\\[0\\].*must be finite and > 0"):
             ms.set_clip_scales([0.0] * 13)
         with self.assertRaisesRegex(hetinv.OutOfRangeError, "hetinv_measurements_row_layout"):
             ms.layout(5)

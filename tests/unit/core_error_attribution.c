@@ -276,7 +276,7 @@ static void test_context_medium_and_sampling(fixture_t *f) {
   EXPECT_FAIL(hetinv_measurements_set_values, (f->set, values, NULL, 9));
   double weights[9] = {1, 1, 1, 1, 1, 1, 1, 1, -1};
   EXPECT_FAIL(hetinv_measurements_set_weights, (f->set, weights, 9));
-  EXPECT_FAIL(hetinv_measurements_set_clip_scales, (f->set, weights, 9));
+  EXPECT_FAIL(hetinv_measurements_set_clip_scales, (f->set, weights, NULL, 9));
   EXPECT_FAIL(hetinv_measurements_set_mask, (f->set, NULL, 9));
   EXPECT_FAIL(hetinv_measurements_mask_saturated, (f->set, (double)NAN, NULL));
 }

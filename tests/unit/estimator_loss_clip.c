@@ -3,7 +3,8 @@
  * c each value's term is w·r² within c standard errors and 2·c·√w·|r| − c²
  * beyond, and the gradient is exactly hetinv_estimator_gradient() on the
  * next stream with the clipped cotangent; the same under a fitted gain;
- * per-value clip scales; and the tunable's and the scales' errors. The checks are exact on one random stream: the
+ * per-value clip scales on each side; and the tunable's and the scales'
+ * errors. The checks are exact on one random stream: the
  * loss's render is the `rendered` output, so the terms are known to
  * rounding. */
 #include <math.h>
@@ -165,11 +166,14 @@ static void clip_applies_to_the_residuals_at_the_fitted_gain(void **state) {
   scene_release(&s);
 }
 
-/* Per-value clip scales: a value of scale s is clipped at c·s of its
- * standard errors, on the plain loss and at a fitted gain; all-1 scales are
- * the default bit for bit. Value 0 (40σ off) escapes the clip of 3 at
- * scale 20, value 4 (60σ off) stays clipped at scale 10. */
-static void clip_scales_multiply_each_values_clip(void **state) {
+/* Per-value clip scales: a value whose render is above the data is
+ * clipped at c·above of its standard errors, one below at c·below, on the
+ * plain loss and at a fitted gain; all-1 scales are the default bit for
+ * bit. Residuals are −off·σ: value 0 (+40σ) escapes the clip of 3 at
+ * above 20, value 4 (−60σ) stays clipped at below 10, and values 1 (−2σ)
+ * and 3 (+2σ) stay inside it on their own side though the other side's
+ * scale of 0.5 would clip them. */
+static void clip_scales_multiply_each_values_clip_on_its_side(void **state) {
   (void)state;
   for (int gain = 0; gain < 2; ++gain) {
     scene_t s;
@@ -179,24 +183,27 @@ static void clip_scales_multiply_each_values_clip(void **state) {
     if (gain) assert_ok(hetinv_estimator_set_gain_mode(s.est, HETINV_GAIN_GLOBAL));
     const double c = 3.0;
     assert_ok(hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, c));
-    const double *got = hetinv_measurements_clip_scales(s.set);
-    for (int n = 0; n < VALUES; ++n) assert_true(got[n] == 1.0);
+    for (int n = 0; n < VALUES; ++n) {
+      assert_true(hetinv_measurements_clip_scales_below(s.set)[n] == 1.0);
+      assert_true(hetinv_measurements_clip_scales_above(s.set)[n] == 1.0);
+    }
     double loss1, g1[24];
     assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss1, NULL, g1, s.k));
-    const double ones[VALUES] = {1, 1, 1, 1, 1}, scale[VALUES] = {20, 1, 0.5, 1, 10};
-    assert_ok(hetinv_measurements_set_clip_scales(s.set, ones, VALUES));
+    const double ones[VALUES] = {1, 1, 1, 1, 1};
+    const double below[VALUES] = {1, 1, 0.5, 0.5, 10}, above[VALUES] = {20, 0.5, 1, 1, 1};
+    assert_ok(hetinv_measurements_set_clip_scales(s.set, ones, ones, VALUES));
     double loss, ren[VALUES], grad[24], k = 1.0;
     assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss, NULL, grad, s.k));
     assert_memory_equal(&loss1, &loss, sizeof loss);
     assert_memory_equal(g1, grad, sizeof g1);
-    assert_ok(hetinv_measurements_set_clip_scales(s.set, scale, VALUES));
+    assert_ok(hetinv_measurements_set_clip_scales(s.set, below, above, VALUES));
     assert_ok(hetinv_estimator_loss_gradient(s.est, s.medium, s.set, s.map, &loss, ren, grad, s.k));
     if (gain) assert_ok(hetinv_estimator_get_gains(s.est, &k, 1, NULL));
     double expect = 0.0, cot[VALUES];
     int clipped = 0;
     for (int n = 0; n < VALUES; ++n) {
       double slope, r = k * ren[n] - m[n];
-      expect += huber(w[n], r, c * scale[n], &slope);
+      expect += huber(w[n], r, c * (r > 0.0 ? above[n] : below[n]), &slope);
       cot[n] = k * slope;
       clipped += fabs(slope) < fabs(2.0 * w[n] * r);
     }
@@ -211,20 +218,27 @@ static void bad_clip_scales_get_precise_errors(void **state) {
   (void)state;
   scene_t s;
   scene_init(&s);
-  double scale[VALUES] = {1, 2, 0, 1, 1};
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, VALUES));
-  assert_message_contains("scales[2]");
+  double scale[VALUES] = {1, 2, 0, 1, 1}, ok[VALUES] = {2, 2, 2, 2, 2};
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, ok, VALUES));
+  assert_message_contains("below[2]");
   assert_message_contains("is 0; it must be finite and > 0");
   scale[2] = -1.0;
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, VALUES));
-  assert_message_contains("scales[2]");
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, ok, scale, VALUES));
+  assert_message_contains("above[2]");
   scale[2] = INFINITY;
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, VALUES));
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, scale, VALUES - 1));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, NULL, scale, VALUES));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, ok, NULL, VALUES - 1));
   assert_message_contains("count is 4; the set has 5 values");
-  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, NULL, VALUES));
-  const double *got = hetinv_measurements_clip_scales(s.set);
-  for (int n = 0; n < VALUES; ++n) assert_true(got[n] == 1.0); /* nothing changed */
+  for (int n = 0; n < VALUES; ++n) { /* nothing changed */
+    assert_true(hetinv_measurements_clip_scales_below(s.set)[n] == 1.0);
+    assert_true(hetinv_measurements_clip_scales_above(s.set)[n] == 1.0);
+  }
+  /* NULL is 1: one side alone, and both NULL reset. */
+  assert_ok(hetinv_measurements_set_clip_scales(s.set, NULL, ok, VALUES));
+  assert_true(hetinv_measurements_clip_scales_below(s.set)[4] == 1.0);
+  assert_true(hetinv_measurements_clip_scales_above(s.set)[4] == 2.0);
+  assert_ok(hetinv_measurements_set_clip_scales(s.set, NULL, NULL, VALUES));
+  assert_true(hetinv_measurements_clip_scales_above(s.set)[4] == 1.0);
   scene_release(&s);
 }
 
@@ -253,7 +267,7 @@ int main(void) {
       cmocka_unit_test(clipped_loss_and_gradient_are_the_huber_terms),
       cmocka_unit_test(masked_values_stay_out),
       cmocka_unit_test(clip_applies_to_the_residuals_at_the_fitted_gain),
-      cmocka_unit_test(clip_scales_multiply_each_values_clip),
+      cmocka_unit_test(clip_scales_multiply_each_values_clip_on_its_side),
       cmocka_unit_test(bad_clip_scales_get_precise_errors),
       cmocka_unit_test(bad_clips_get_precise_errors),
   };

@@ -944,7 +944,7 @@ static void minibatches_keep_the_clip_scales(void **state) {
   assert_true(x[1].losses[0] < 0.5 * x[0].losses[0]);
   double *scales = malloc(a.count * sizeof *scales);
   for (size_t i = 0; i < a.count; ++i) scales[i] = 1e9;
-  assert_ok(hetinv_measurements_set_clip_scales(a.set, scales, a.count));
+  assert_ok(hetinv_measurements_set_clip_scales(a.set, scales, scales, a.count));
   reference_run(&a, &s, 1, &x[2]);
   assert_same_outcome(&x[0], &x[2]);
   free(scales);
@@ -1415,12 +1415,12 @@ static void resume_refuses_another_configuration(void **state) {
   assert_ok(hetinv_measurements_set_values(p->set, values, NULL, p->count));
   /* The loss clip's scales; set back to 1 they hash as a set that never had any. */
   for (size_t i = 0; i < p->count; ++i) values[i] = i == 1 ? 2.0 : 1.0;
-  assert_ok(hetinv_measurements_set_clip_scales(p->set, values, p->count));
+  assert_ok(hetinv_measurements_set_clip_scales(p->set, NULL, values, p->count));
   opt = make_optimizer(p, &s);
   expect_refused(opt, path, "clip scales");
   hetinv_optimizer_destroy(&opt);
   values[1] = 1.0;
-  assert_ok(hetinv_measurements_set_clip_scales(p->set, values, p->count));
+  assert_ok(hetinv_measurements_set_clip_scales(p->set, values, values, p->count));
   free(values);
   /* Initial medium. */
   hetinv_medium_t *other = make_medium(p->ctx, p->dims, 7.0);

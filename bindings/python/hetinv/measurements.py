@@ -114,11 +114,16 @@ class Measurements(Handle):
         check(lib.measurements_set_weights(self._ptr, w.ptr, w.count))
         return self
 
-    def set_clip_scales(self, scales):
-        """scales: value_count numbers > 0 by which Huber's clip
-        (Estimator loss_clip) of each value is multiplied (default 1)."""
-        c = _arrays.to_c(scales, "d", name="scales")
-        check(lib.measurements_set_clip_scales(self._ptr, c.ptr, c.count))
+    def set_clip_scales(self, below=None, above=None):
+        """below, above: value_count numbers > 0 by which Huber's clip
+        (Estimator loss_clip) of each value is multiplied where the render
+        is below the data and where it is above (None: 1)."""
+        if below is None and above is None:
+            raise ValueError("set_clip_scales: give below, above or both")
+        b = _arrays.to_c(below, "d", name="below")
+        a = _arrays.to_c(above, "d", b.count if below is not None else None, "above")
+        count = b.count if below is not None else a.count
+        check(lib.measurements_set_clip_scales(self._ptr, b.ptr, a.ptr, count))
         return self
 
     def set_mask(self, mask):
@@ -157,8 +162,12 @@ class Measurements(Handle):
         return self._copy(lib.measurements_weights, "d")
 
     @property
-    def clip_scales(self):
-        return self._copy(lib.measurements_clip_scales, "d")
+    def clip_scales_below(self):
+        return self._copy(lib.measurements_clip_scales_below, "d")
+
+    @property
+    def clip_scales_above(self):
+        return self._copy(lib.measurements_clip_scales_above, "d")
 
     @property
     def mask(self):
