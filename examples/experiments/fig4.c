@@ -21,7 +21,7 @@
  * cube, 6 × 6 section, one 0.1 mm imaging pixel and bin per voxel; 2
  * volumes) ran in 224 s on two cores; --full is the paper's size
  * (10 mm cube, 25 × 25 section, 0.1 mm pixels and bins, 5 volumes, 2000
- * finest iterations, 4000 for configuration (3); ADADELTA's
+ * finest iterations, 4000 for configurations (2) and (3); ADADELTA's
  * ε 0.0015). --volumes A-B runs volumes A to B only (side by side in
  * separate folders; copy the cell folders together to tabulate them).
  *
@@ -177,8 +177,11 @@ static void make_scene(recon_scene_t *sc, const fig4_options_t *o, int c, int v)
      * loss at the recovery exceeds the truth's by 12 standard errors on
      * volume 1, by 5 at 4000, and 4000 lowered every figure on volumes 1
      * and 2 (docs/results/fig4.md). Its cells are the table's cheapest,
-     * so they can afford it. */
-    sc->iterations = c == 3 ? 4000 : 2000;
+     * so they can afford it. (2)'s approaches its far σs from above (the
+     * start is 4× the truth there) and 2000 iterations left it +16 % on
+     * volume 2; 4000 lowered 11 of 12 figures on volumes 1-2, chosen
+     * before volumes 3-5 ran (docs/results/fig4.md, with its cost). */
+    sc->iterations = c == RECON_PATHLENGTH_ANGLES || c == RECON_STEADY ? 4000 : 2000;
     sc->photons = 5000;
     /* Half the reduced scene's ε: at 1875 unknowns the recovery's error
      * follows ADADELTA's step (ε 0.01: 8.2 / 14.5 / 10.9 % mean; 0.003:
