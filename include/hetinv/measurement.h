@@ -134,7 +134,11 @@ HETINV_API hetinv_result_t hetinv_measurements_set_weights(hetinv_measurements_t
  * the side above the data and biases the gradient toward brighter
  * renders. The data's own rare bright paths fall on the other side, below:
  * setting s above and 1 below keeps them clipped at c of the data's
- * errors. Without HETINV_ESTIMATOR_LOSS_CLIP the scales change nothing.
+ * errors. The cut tail is also the gradient's largest noise, so a wider
+ * clip trades variance for bias: it helped where the data held the
+ * unknowns loosely and hurt where they held them tightly (the repository's
+ * Fig. 4 experiment). Without HETINV_ESTIMATOR_LOSS_CLIP the scales
+ * change nothing.
  * @param set the set.
  * @param below @p count finite values > 0 for residuals below the data
  *        (r < 0), or NULL for 1. Copied.
