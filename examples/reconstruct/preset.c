@@ -215,6 +215,12 @@ int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *sc, const het
     snprintf(msg, n, "%s: only a simulated configuration (medium, imaging) is written as a preset", dir);
     return -1;
   }
+  /* The files scene reads measured data, whose render variance is unknown. */
+  if (sc->loss_clip_errors != RECON_CLIP_DATA) {
+    snprintf(msg, n, "estimator.loss_clip_errors: \"%s\" needs simulated data, and a preset reads its data from "
+             "files; write it with \"data\"", recon_clip_errors_names[sc->loss_clip_errors]);
+    return -1;
+  }
   /* The render scene's seed is a JSON integer, exact up to 2^53. */
   if (sc->seed > (UINT64_C(1) << 53)) {
     snprintf(msg, n, "seed: %llu is above 2^53, the largest a render scene holds (use a smaller one)",
