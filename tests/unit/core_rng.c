@@ -43,6 +43,59 @@ static void stream_is_philox_of_the_packed_key_and_counter(void **state) {
   }
 }
 
+/* Each fill of the block queue (core/rng.c) gives Philox of each counter
+ * alone, also where the first counter word wraps around 2^32. */
+static void every_queue_fill_is_philox_block_by_block(void **state) {
+  (void)state;
+  const hv_rng_fill_t fills[] = {HV_RNG_FILL_PORTABLE, HV_RNG_FILL_SSE2, HV_RNG_FILL_AVX2};
+  const uint32_t starts[] = {0, 0xfffffffbu};
+  int ran = 0;
+  for (size_t f = 0; f < sizeof fills / sizeof fills[0]; ++f) {
+    for (size_t s = 0; s < 2; ++s) {
+      hv_rng_t r = hv_rng_init(UINT64_C(0xfedcba9876543210), 0x7u, UINT64_C(0xabcdef012345), 0x99u);
+      r.ctr.v[0] = starts[s];
+      philox4x32_ctr_t c = r.ctr;
+      if (!hv_rng_fill_queue_using(&r, fills[f])) continue;
+      ++ran;
+      for (int fill = 0; fill < 3; ++fill) {
+        if (fill > 0) assert_true(hv_rng_fill_queue_using(&r, fills[f]));
+        for (unsigned b = 0; b < HV_RNG_QUEUE; ++b, ++c.v[0]) {
+          philox4x32_ctr_t want = hv_philox4x32_10(c, r.key);
+          for (int j = 0; j < 4; ++j) assert_int_equal(r.queue[b].v[j], want.v[j]);
+        }
+        assert_int_equal(r.ctr.v[0], c.v[0]);
+      }
+    }
+  }
+  assert_true(ran >= 2); /* the portable fill at least */
+}
+
+/* Whole blocks and single outputs come from one counter sequence, in
+ * order, across the queue's refills. */
+static void blocks_and_outputs_share_the_counter_order(void **state) {
+  (void)state;
+  hv_rng_t r = hv_rng_init(11, 5, 77, 3);
+  philox4x32_ctr_t c = r.ctr;
+  philox4x32_key_t k = r.key;
+  philox4x32_ctr_t cur = c;
+  int left = 0;
+  for (int i = 0; i < 5 * HV_RNG_QUEUE; ++i) {
+    if (i % 3 == 1) {
+      philox4x32_ctr_t got = hv_rng_block(&r), want = hv_philox4x32_10(c, k);
+      ++c.v[0];
+      for (int j = 0; j < 4; ++j) assert_int_equal(got.v[j], want.v[j]);
+    } else {
+      if (left == 0) {
+        cur = hv_philox4x32_10(c, k);
+        ++c.v[0];
+        left = 4;
+      }
+      assert_int_equal(hv_rng_u32(&r), cur.v[4 - left]);
+      --left;
+    }
+  }
+}
+
 static void same_key_gives_same_sequence(void **state) {
   (void)state;
   hv_rng_t a = hv_rng_init(7, 3, 1000, 2), b = hv_rng_init(7, 3, 1000, 2);
@@ -153,6 +206,8 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(philox_matches_random123_known_answers),
       cmocka_unit_test(stream_is_philox_of_the_packed_key_and_counter),
+      cmocka_unit_test(every_queue_fill_is_philox_block_by_block),
+      cmocka_unit_test(blocks_and_outputs_share_the_counter_order),
       cmocka_unit_test(same_key_gives_same_sequence),
       cmocka_unit_test(every_key_component_changes_the_sequence),
       cmocka_unit_test(uniforms_stay_in_their_intervals),
