@@ -57,7 +57,7 @@ void recon_scene_default(recon_scene_t *sc) {
    * 1/v², taken from the noisy values, biased the fit (docs/results/seeds.md). */
   sc->weighting = RECON_WEIGHT_VARIANCE;
   sc->gain_mode = HETINV_GAIN_NONE;
-  sc->saturation = INFINITY;
+  sc->saturation = (double)INFINITY;
   /* Values the data do not resolve to a third are left out: their Monte
    * Carlo errors are heavy-tailed and underestimated (recon.h). */
   sc->min_snr = 3.0;

@@ -61,7 +61,7 @@ HETINV_API hetinv_result_t hetinv_pathlength_create_bins_irf(
     hetinv_pathlength_destroy(&p);
     return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %d IRF samples", (int)kept);
   }
-  p->late = -INFINITY;
+  p->late = -(double)INFINITY;
   for (int32_t j = 0; j < irf_count; ++j) {
     if (!(irf_samples[j] > 0.0)) continue; /* a zero tap adds nothing: skip its bin search */
     p->tap_offset[p->taps] = irf_offsets[j];

@@ -1157,7 +1157,7 @@ static void a_stage_epsilon_start_changes_only_the_first_half(void **state) {
   capture(opt, 1, &o[3]);
   hetinv_optimizer_destroy(&opt);
   assert_same_outcome(&o[0], &o[3]);
-  const double bad[3] = {-0.01, 1.5, NAN};
+  const double bad[3] = {-0.01, 1.5, (double)NAN};
   for (int i = 0; i < 3; ++i) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
     hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, bad[i], 0};
