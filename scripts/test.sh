@@ -10,7 +10,8 @@
 #     under mpirun on 1, 2 and 4 ranks and compare them bitwise with each
 #     other and with build-release/ (without MPI), and the installed MPI
 #     library's pkg-config file and CMake package;
-#  4. the libFuzzer harnesses, built with clang, each for a short smoke run
+#  4. the libFuzzer harnesses, built with clang (the library with warnings as
+#     errors, so clang's stricter checks hold too), each for a short smoke run
 #     (build-fuzz/).
 # Ends with one line "hetinv: N passed, M failed".
 set -eu
@@ -61,7 +62,7 @@ run_suite build-mpi -L "^(mpi|unit|install)$"
 echo "== fuzz build (clang, libFuzzer)"
 CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DHETINV_BUILD_FUZZERS=ON \
   -DHETINV_BUILD_TESTS=OFF -DHETINV_BUILD_EXAMPLES=OFF -DHETINV_BUILD_BENCH=OFF \
-  -DHETINV_BUILD_DOCS=OFF >/dev/null
+  -DHETINV_BUILD_DOCS=OFF -DHETINV_WERROR=ON >/dev/null
 cmake --build build-fuzz -j"$jobs"
 run_suite build-fuzz
 
