@@ -53,7 +53,7 @@ static bool bench(case_id_t c, int32_t threads, double photons, int repeat) {
 int main(int argc, char **argv) {
   double photons = 200000, repeat = 2, threads = 1;
   int first = CASE_A1, last = CASE_A1_HET;
-  for (int i = 1; i < argc; ++i) {
+  for (int i = 1; i < argc; i += 2) { /* every option takes a value */
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
     bool bad = v == NULL;
     if (!bad && strcmp(a, "--photons") == 0) {
@@ -74,7 +74,6 @@ int main(int argc, char **argv) {
               "[--case a1|a1-eta|a1-het]\n");
       return 2;
     }
-    ++i;
   }
   for (int c = first; c <= last; ++c) {
     if (c == CASE_A1_ETA && first != last) continue; /* the issue asks for A1 and its het variant */

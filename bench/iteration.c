@@ -72,7 +72,7 @@ enum { RENDER, GRADIENT, LOSS, ITERATION, PARTS };
 
 int main(int argc, char **argv) {
   long threads = 0, photons = -1, iterations = 20, repeat = 5, grid = 6;
-  for (int i = 1; i < argc; ++i) {
+  for (int i = 1; i < argc; i += 2) { /* every option takes a value */
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
     long *dst = strcmp(a, "--threads") == 0 ? &threads : strcmp(a, "--photons") == 0 ? &photons
               : strcmp(a, "--iterations") == 0 ? &iterations : strcmp(a, "--repeat") == 0 ? &repeat
@@ -83,7 +83,6 @@ int main(int argc, char **argv) {
       return 2;
     }
     if (parse(a, v, lo, hi, dst) < 0) return 2;
-    ++i;
   }
   if (repeat > 64) repeat = 64;
   recon_scene_t sc;

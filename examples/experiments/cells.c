@@ -8,6 +8,9 @@
 #include <string.h>
 
 /* Appends printf-style text to the key (truncated at key_size, as snprintf). */
+#if defined(__GNUC__)
+__attribute__((format(printf, 3, 4)))
+#endif
 static void key_append(char *key, size_t key_size, const char *fmt, ...) {
   size_t len = strlen(key);
   va_list ap;

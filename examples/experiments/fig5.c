@@ -410,7 +410,7 @@ static int verdict_of(hetinv_context_t *ctx, const hetinv_medium_t *truth, const
     }
     const double *t = hetinv_medium_grid(truth, (hetinv_param_t)p);
     for (size_t k = 0; status == 0 && k < voxels; ++k) {
-      experiment_verdict_voxel(&v, p, t[k], r[k], rel[k], PAPER_MAX_ERROR);
+      experiment_verdict_voxel(&v, p, t[k], (double)r[k], (double)rel[k], PAPER_MAX_ERROR);
     }
     free(r);
   }

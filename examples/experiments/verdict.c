@@ -100,8 +100,8 @@ static int add_param(hetinv_context_t *ctx, const char *dir, int p, hetinv_image
   for (int32_t z = 0; status == 0 && z < dt[2]; ++z) {
     for (int32_t x = 0; x < dt[0]; ++x) {
       size_t k = ((size_t)z * (size_t)dt[1] + (size_t)(dt[1] / 2)) * (size_t)dt[0] + (size_t)x;
-      double bk = b[(size_t)z * (size_t)w + (size_t)x];
-      experiment_verdict_voxel(v, p, t[k], r[k], bk, VERDICT_MAX_ERROR);
+      double bk = (double)b[(size_t)z * (size_t)w + (size_t)x];
+      experiment_verdict_voxel(v, p, (double)t[k], (double)r[k], bk, VERDICT_MAX_ERROR);
     }
   }
   free(t);

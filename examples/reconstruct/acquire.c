@@ -247,9 +247,9 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
   uint8_t *mask = calloc(n, 1);
   r = v && se && wt && cs && mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
   for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) {
-    v[i] = hetinv_image_channel_data(img, ch[0])[i];
-    se[i] = hetinv_image_channel_data(img, ch[1])[i];
-    wt[i] = hetinv_image_channel_data(img, ch[2])[i];
+    v[i] = (double)hetinv_image_channel_data(img, ch[0])[i];
+    se[i] = (double)hetinv_image_channel_data(img, ch[1])[i];
+    wt[i] = (double)hetinv_image_channel_data(img, ch[2])[i];
     mask[i] = hetinv_image_channel_data(img, ch[3])[i] != 0.0f;
     for (int c = 0; c < 2; ++c) {
       cs[c * n + i] = scale_ch[c] >= 0 ? (double)hetinv_image_channel_data(img, scale_ch[c])[i] : 1.0;

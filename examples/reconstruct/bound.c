@@ -127,7 +127,7 @@ static void summarise(recon_bound_t *b, size_t voxels) {
       }
     }
     b->lower_mean[p] = lo_n ? lo_sum / (double)lo_n : (double)NAN;
-    b->median[p] = NAN;
+    b->median[p] = (double)NAN;
     if (sorted && n) {
       qsort(sorted, n, sizeof *sorted, compare_double);
       b->median[p] = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);

@@ -54,7 +54,7 @@ int main(int argc, char **argv) {
   double sum = 0.0;
   if (wb && nb == n) status = 0;
   for (size_t i = 0; i < n && status == 0; ++i) {
-    double s = scale[i], expect = wa[i] > 0.0f && wb[i] > 0.0f ? sqrt((double)wa[i] / (double)wb[i]) : 1.0;
+    double s = (double)scale[i], expect = wa[i] > 0.0f && wb[i] > 0.0f ? sqrt((double)wa[i] / (double)wb[i]) : 1.0;
     bool ok = s >= 1.0 && fabs(s - expect) <= 1e-6 * expect && below[i] == scale[i];
     if (!ok) {
       fprintf(stderr, "hetinv-clip-scales-check: value %zu: clip_scale_above %.9g (below %.9g); weights %.9g and %.9g "

@@ -58,7 +58,7 @@ static int read_stack(hetinv_context_t *ctx, const scene_t *scene, int row, size
     const float *px = hetinv_image_channel_data(img, c);
     for (int32_t y = 0; status == 0 && y < h; ++y) {
       for (int32_t x = 0; x < w; ++x) {
-        double v = px[(size_t)y * (size_t)w + (size_t)x];
+        double v = (double)px[(size_t)y * (size_t)w + (size_t)x];
         if (!isfinite(v) || (std_errors && v < 0.0)) {
           snprintf(msg, msg_size, "%s: channel \"%s\", pixel (%d, %d) of measurement row %d \"%s\": "
                    "%s is %g; expected a finite %s", file, name, (int)x, (int)y, row, rw->name,

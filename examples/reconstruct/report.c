@@ -40,7 +40,7 @@ static hetinv_result_t write_png(hetinv_context_t *ctx, const char *dir, int p, 
   const int32_t left = truth ? d[0] + 1 : 0; /* cells before the recovery */
   if (truth == NULL) truth = rec;
   int32_t s = 256 / d[0] > 1 ? 256 / d[0] : 1, w = (left + d[0]) * s, h = d[2] * s;
-  double lo = INFINITY, hi = -INFINITY;
+  double lo = (double)INFINITY, hi = -(double)INFINITY;
   for (int32_t z = 0; z < d[2]; ++z) {
     for (int32_t x = 0; x < d[0]; ++x) {
       double a = section_value(truth, p, x, z), b = section_value(rec, p, x, z);

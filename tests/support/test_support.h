@@ -52,4 +52,11 @@ int ht_tmpdir_entry_count(void);
 int ht_context_setup(void **state);
 int ht_context_teardown(void **state);
 
+/* A non-NULL pointer that is no object of the library: tests that a
+ * failing create sets its out-argument to NULL start from it. */
+static inline void *test_sentinel(void) {
+  static double storage[4];
+  return storage;
+}
+
 #endif

@@ -401,7 +401,7 @@ static void bad_arguments_fail_with_precise_messages(void **state) {
   expect_failure(ctx, &m, clean, 4, HETINV_ERROR_INVALID_ARGUMENT, "model->size is 8");
   m = ok, m.full_well = 0.0;
   expect_failure(ctx, &m, clean, 4, HETINV_ERROR_INVALID_ARGUMENT, "model->full_well is 0;");
-  m = ok, m.full_well = NAN;
+  m = ok, m.full_well = (double)NAN;
   expect_failure(ctx, &m, clean, 4, HETINV_ERROR_INVALID_ARGUMENT, "model->full_well is nan");
   m = ok, m.full_well = 2e15;
   expect_failure(ctx, &m, clean, 4, HETINV_ERROR_INVALID_ARGUMENT, "model->full_well is 2e+15");
@@ -409,7 +409,7 @@ static void bad_arguments_fail_with_precise_messages(void **state) {
   expect_failure(ctx, &m, clean, 4, HETINV_ERROR_INVALID_ARGUMENT, "model->read_noise is -1;");
   m = ok, m.exposure = -2.0;
   expect_failure(ctx, &m, clean, 4, HETINV_ERROR_INVALID_ARGUMENT, "model->exposure is -2;");
-  m = ok, m.exposure = INFINITY;
+  m = ok, m.exposure = (double)INFINITY;
   expect_failure(ctx, &m, clean, 4, HETINV_ERROR_INVALID_ARGUMENT, "model->exposure is inf");
   m = ok, m.auto_level = 0.0;
   expect_failure(ctx, &m, clean, 4, HETINV_ERROR_INVALID_ARGUMENT, "model->auto_level is 0;");
@@ -425,7 +425,7 @@ static void bad_arguments_fail_with_precise_messages(void **state) {
   const double negative[4] = {1, 2, -0.5, 4};
   expect_failure(ctx, &ok, negative, 4, HETINV_ERROR_INVALID_ARGUMENT,
                  "clean[2] is -0.5; it must be finite and >= 0");
-  const double not_finite[4] = {1, 2, 3, NAN};
+  const double not_finite[4] = {1, 2, 3, (double)NAN};
   expect_failure(ctx, &ok, not_finite, 4, HETINV_ERROR_INVALID_ARGUMENT, "clean[3] is nan");
   const double dark[4] = {0, 0, 0, 0};
   expect_failure(ctx, &ok, dark, 4, HETINV_ERROR_INVALID_ARGUMENT,

@@ -15,7 +15,7 @@ static hetinv_medium_t *make_in(hetinv_context_t *ctx, int32_t nx, int32_t ny, i
 
 static void range_of(const hetinv_medium_t *m, hetinv_param_t p, double *lo, double *hi) {
   const double *v = hetinv_medium_grid(m, p);
-  *lo = INFINITY, *hi = -INFINITY;
+  *lo = (double)INFINITY, *hi = -(double)INFINITY;
   for (size_t i = 0; i < hetinv_medium_voxel_count(m); ++i) {
     *lo = fmin(*lo, v[i]);
     *hi = fmax(*hi, v[i]);
@@ -322,7 +322,7 @@ static void bad_mixture_specs_fail_with_precise_messages(void **state) {
                  "spec->lo[0] (sigma_a) is 0.6 and spec->hi[0] is 0.5; lo must be <= hi");
   s.lo[1] = -0.5;
   EXPECT_MIXTURE(HETINV_ERROR_INVALID_ARGUMENT, "spec->lo[1] (sigma_s) is -0.5; it must be >= 0");
-  s.hi[1] = INFINITY;
+  s.hi[1] = (double)INFINITY;
   EXPECT_MIXTURE(HETINV_ERROR_INVALID_ARGUMENT, "spec->hi[1] (sigma_s) is inf; it must be finite");
   s.hi[2] = 1.0;
   EXPECT_MIXTURE(HETINV_ERROR_INVALID_ARGUMENT, "spec->hi[2] (g) is 1; it must satisfy -1 < g < 1");
@@ -339,7 +339,7 @@ static void bad_mixture_specs_fail_with_precise_messages(void **state) {
   s.max_width = 0.1; /* below min_width 0.15 */
   EXPECT_MIXTURE(HETINV_ERROR_INVALID_ARGUMENT,
                  "spec->max_width is 0.1; it must be finite and >= spec->min_width (0.15)");
-  s.max_width = NAN;
+  s.max_width = (double)NAN;
   EXPECT_MIXTURE(HETINV_ERROR_INVALID_ARGUMENT, "spec->max_width is nan");
   s.constant_axis = 3;
   EXPECT_MIXTURE(HETINV_ERROR_INVALID_ARGUMENT, "spec->constant_axis is 3; it must be -1 (3D), 0, 1 or 2");
@@ -390,7 +390,7 @@ static void bad_smoke_specs_fail_with_precise_messages(void **state) {
   EXPECT_SMOKE(HETINV_ERROR_INVALID_ARGUMENT, "spec->feature_size is 0.01; it must be in [0.02, 1]");
   s.feature_size = 1.5;
   EXPECT_SMOKE(HETINV_ERROR_INVALID_ARGUMENT, "spec->feature_size is 1.5;");
-  s.feature_size = NAN;
+  s.feature_size = (double)NAN;
   EXPECT_SMOKE(HETINV_ERROR_INVALID_ARGUMENT, "spec->feature_size is nan;");
 
   assert_ok(hetinv_medium_commit(m));

@@ -225,7 +225,7 @@ static void bad_clip_scales_get_precise_errors(void **state) {
   scale[2] = -1.0;
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, ok, scale, VALUES));
   assert_message_contains("above[2]");
-  scale[2] = INFINITY;
+  scale[2] = (double)INFINITY;
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, NULL, scale, VALUES));
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_measurements_set_clip_scales(s.set, ok, NULL, VALUES - 1));
   assert_message_contains("count is 4; the set has 5 values");
@@ -251,7 +251,7 @@ static void bad_clips_get_precise_errors(void **state) {
   assert_true(lo == 0.0 && hi == 1e6);
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, -0.5));
   assert_message_contains("HETINV_ESTIMATOR_LOSS_CLIP is -0.5; it must be a number in [0, 1000000]");
-  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, NAN));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, (double)NAN));
   assert_message_contains("HETINV_ESTIMATOR_LOSS_CLIP is nan");
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_set_param(s.est, HETINV_ESTIMATOR_LOSS_CLIP, 2e6));
   double clip = -1;

@@ -394,11 +394,11 @@ static void apply_errors(void **state) {
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) {
     assert_memory_equal(hetinv_medium_grid(m, p), hetinv_medium_grid(before, p), 12 * sizeof(double));
   }
-  pi[12 + bad] = NAN;
+  pi[12 + bad] = (double)NAN;
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_param_map_apply(map, pi, 24, m));
   assert_message_contains("voxel (2, 1, 1)");
   pi[12 + bad] = 1.0;
-  pi[0] = INFINITY; /* σa of voxel (0, 0, 0) */
+  pi[0] = (double)INFINITY; /* σa of voxel (0, 0, 0) */
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_param_map_apply(map, pi, 24, m));
   assert_message_contains("voxel (0, 0, 0)");
   pi[0] = 0.25;
@@ -474,7 +474,7 @@ static void extract_copies_and_averages(void **state) {
   assert_ok(hetinv_param_map_extract(map, m, pi, 12));
   for (int c = 0; c < 12; ++c) {
     int cx = c % 2, row = c / 2; /* row = (y, z) */
-    double lo = INFINITY, hi = -INFINITY;
+    double lo = (double)INFINITY, hi = -(double)INFINITY;
     for (int x = 0; x < 4; ++x) {
       if (w4to2[x][cx] == 0.0) continue;
       lo = fmin(lo, sa[4 * row + x]);

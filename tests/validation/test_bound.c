@@ -556,7 +556,7 @@ static void bad_arguments_are_rejected(void **state) {
   assert_message_contains("'v' is NULL");
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_jvp(est, p.medium, p.set, p.map, v, 3, jv, NULL, TINY_VALUES));
   assert_message_contains("v_count is 3; the map has 4 entries");
-  v[2] = NAN;
+  v[2] = (double)NAN;
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_jvp(est, p.medium, p.set, p.map, v, 4, jv, NULL, TINY_VALUES));
   assert_message_contains("v[2] is nan");
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_jvp(est, p.medium, p.set, p.map, v, 4, jv, NULL, 8));

@@ -163,7 +163,7 @@ static int compare_directions(const char *case_id, const double beam[3],
       char name[96];
       snprintf(name, sizeof name, "%s/%s_mu%.2f_%s/d%s", case_id, dirs[i].out[2] > 0 ? "L_R" : "L_T",
                fabs(dirs[i].out[2]), dirs[i].name, hetinv_param_name(p));
-      failures += !grad_compare(name, refs[p], 0.0, INFINITY, grad[p], grad_se[p], GRAD_BATCH_DOF,
+      failures += !grad_compare(name, refs[p], 0.0, (double)INFINITY, grad[p], grad_se[p], GRAD_BATCH_DOF,
                                 COMPARISONS, seed);
     }
   }
