@@ -54,7 +54,7 @@ int ht_context_teardown(void **state);
 
 /* A non-NULL pointer that is no object of the library: tests that a
  * failing create sets its out-argument to NULL start from it. */
-static inline void *test_sentinel(void) {
+static inline void *ht_sentinel(void) {
   static double storage[4];
   return storage;
 }

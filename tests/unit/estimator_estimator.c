@@ -361,7 +361,7 @@ static void unknown_param_ids_are_rejected(void **state) {
 }
 
 static void estimator_rejects_null_arguments(void **state) {
-  hetinv_estimator_t *est = (hetinv_estimator_t *)test_sentinel();
+  hetinv_estimator_t *est = (hetinv_estimator_t *)ht_sentinel();
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_estimator_create(*state, NULL));
   assert_message_contains("'out' is NULL");
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_estimator_create(NULL, &est));

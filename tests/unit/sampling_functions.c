@@ -25,8 +25,8 @@ static hetinv_medium_t *make_medium(hetinv_context_t *ctx, double eta, double et
 }
 
 /* Sentinel a failing create must overwrite with NULL. */
-static hetinv_emitter_t *emitter_sentinel(void) { return (hetinv_emitter_t *)test_sentinel(); }
-static hetinv_sensor_t *sensor_sentinel(void) { return (hetinv_sensor_t *)test_sentinel(); }
+static hetinv_emitter_t *emitter_sentinel(void) { return (hetinv_emitter_t *)ht_sentinel(); }
+static hetinv_sensor_t *sensor_sentinel(void) { return (hetinv_sensor_t *)ht_sentinel(); }
 
 /* ------------------------------------------------------------------------ */
 /* Ideal emitters */
@@ -856,7 +856,7 @@ static void steady_pathlength_has_one_bin(void **state) {
 }
 
 static void steady_pathlength_rejects_null_arguments(void **state) {
-  hetinv_pathlength_t *p = (hetinv_pathlength_t *)test_sentinel();
+  hetinv_pathlength_t *p = (hetinv_pathlength_t *)ht_sentinel();
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_pathlength_create_steady(*state, NULL));
   assert_message_contains("'out' is NULL");
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_pathlength_create_steady(NULL, &p));
@@ -887,7 +887,7 @@ static void bins_copy_their_centres(void **state) {
 
 static void bins_reject_null_arguments(void **state) {
   const double c[1] = {1};
-  hetinv_pathlength_t *p = (hetinv_pathlength_t *)test_sentinel();
+  hetinv_pathlength_t *p = (hetinv_pathlength_t *)ht_sentinel();
   assert_result(HETINV_ERROR_NULL_ARGUMENT,
                 hetinv_pathlength_create_bins(*state, HETINV_WINDOW_BOX, 1, c, 1, NULL));
   assert_result(HETINV_ERROR_NULL_ARGUMENT,
@@ -901,7 +901,7 @@ static void bins_reject_null_arguments(void **state) {
 
 static void bins_reject_an_unknown_window(void **state) {
   const double c[1] = {1};
-  hetinv_pathlength_t *p = (hetinv_pathlength_t *)test_sentinel();
+  hetinv_pathlength_t *p = (hetinv_pathlength_t *)ht_sentinel();
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_pathlength_create_bins(*state, 2, 1, c, 1, &p));
   assert_message_contains("window is 2; it must be HETINV_WINDOW_BOX (0) or HETINV_WINDOW_GAUSSIAN (1)");
   assert_null(p);
@@ -911,7 +911,7 @@ static void bins_reject_an_unknown_window(void **state) {
 
 static void bins_reject_zero_bins(void **state) {
   const double c[1] = {1};
-  hetinv_pathlength_t *p = (hetinv_pathlength_t *)test_sentinel();
+  hetinv_pathlength_t *p = (hetinv_pathlength_t *)ht_sentinel();
   assert_result(HETINV_ERROR_INVALID_ARGUMENT,
                 hetinv_pathlength_create_bins(*state, HETINV_WINDOW_BOX, 0, c, 1, &p));
   assert_message_contains("count is 0; it must be > 0");
@@ -923,7 +923,7 @@ static void bins_reject_zero_bins(void **state) {
 
 static void bins_reject_a_non_positive_width(void **state) {
   const double c[1] = {1};
-  hetinv_pathlength_t *p = (hetinv_pathlength_t *)test_sentinel();
+  hetinv_pathlength_t *p = (hetinv_pathlength_t *)ht_sentinel();
   assert_result(HETINV_ERROR_INVALID_ARGUMENT,
                 hetinv_pathlength_create_bins(*state, HETINV_WINDOW_BOX, 1, c, 0.0, &p));
   assert_message_contains("width is 0; it must be finite and > 0");
@@ -947,7 +947,7 @@ static void bins_reject_a_non_finite_width(void **state) {
 
 static void bins_reject_negative_centres(void **state) {
   const double c[3] = {1, 2, -0.5};
-  hetinv_pathlength_t *p = (hetinv_pathlength_t *)test_sentinel();
+  hetinv_pathlength_t *p = (hetinv_pathlength_t *)ht_sentinel();
   assert_result(HETINV_ERROR_INVALID_ARGUMENT,
                 hetinv_pathlength_create_bins(*state, HETINV_WINDOW_BOX, 3, c, 1, &p));
   assert_message_contains("centres[2] is -0.5; it must be finite and >= 0");

@@ -86,7 +86,7 @@ static void new_set_is_empty(void **state) {
 }
 
 static void create_rejects_null_arguments(void **state) {
-  hetinv_measurements_t *set = (hetinv_measurements_t *)test_sentinel();
+  hetinv_measurements_t *set = (hetinv_measurements_t *)ht_sentinel();
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_measurements_create(*state, NULL));
   assert_message_contains("'out' is NULL");
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_measurements_create(NULL, &set));
