@@ -14,7 +14,7 @@
  *               [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
- *               [--bound-replicates N] [--bound-from DIR] [--init-truth] [--fit-check] [--fit-photons N]
+ *               [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]
  *               [--fit-replicates N]
  *
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
@@ -130,7 +130,11 @@
  * recovery that stays near the truth says the default run's miss comes
  * from its path from the uniform start; one that moves as far away says
  * the data (or the estimator's noise at this budget) do not hold the
- * voxels. Use another -o: the cells' keys differ from the default's. */
+ * voxels. Use another -o: the cells' keys differ from the default's.
+ *
+ * --init-geometric starts σa and σs at the geometric middle of their boxes
+ * (sqrt(lo·hi)) instead of the arithmetic one: with log steps, a truth near
+ * the box's floor is then as far from the start as one near its top. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -241,6 +245,13 @@ static void make_scene(recon_scene_t *sc, const fig4_options_t *o, int c, int v)
     sc->bounds_lo[p] *= scale;
     sc->bounds_hi[p] *= scale;
     sc->init[p] *= scale;
+  }
+  if (o->init_geometric) {
+    /* σa and σs start at the geometric middle of their boxes, the middle
+     * of the log steps: a far truth near the box's floor is then as many
+     * factors away as one near its top. */
+    for (int p = 0; p < 2; ++p) sc->init[p] = sqrt(sc->bounds_lo[p] * sc->bounds_hi[p]);
+    sc->init_keyed = true;
   }
   if (init_truth) { /* the diagnostic: the finest level alone, from the truth */
     sc->init_at_truth = true;

@@ -19,7 +19,7 @@ static int usage(const char *what) {
           "                   [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
-          "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--fit-check] [--fit-photons N]\n"
+          "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]\n"
           "                   [--fit-replicates N]\n",
           what);
   return 2;
@@ -47,6 +47,8 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       o->write_scenes = true;
     } else if (strcmp(a, "--init-truth") == 0) {
       o->init_truth = true;
+    } else if (strcmp(a, "--init-geometric") == 0) {
+      o->init_geometric = true;
     } else if (strcmp(a, "--fit-check") == 0) {
       o->fit = true;
     } else if (strcmp(a, "--fit-photons") == 0) {

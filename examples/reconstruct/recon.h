@@ -152,6 +152,7 @@ typedef struct recon_scene {
   double bounds_lo[3], bounds_hi[3];
   double init[3];               /* uniform initial values */
   bool init_at_truth;           /* start at the truth instead (a diagnostic) */
+  bool init_keyed;              /* init differs from the scene's default: cells key it */
   int32_t level_count;          /* multi-resolution: cells per axis of each stage */
   int32_t levels[RECON_MAX_LEVELS];
   int32_t layerwise_layers;     /* > 0: layer-wise stages first (Fig. 2b) */
