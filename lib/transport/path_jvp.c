@@ -67,7 +67,7 @@ static void catch_up(const hv_jvp_state_t *st, const hv_path_log_t *log, size_t 
       /* Split as hv_grad_apply_log splits it. */
       extinction_visit_t x = {st, run};
       hv_walk_log_ray(st->grid, e, end, add_extinction_visit, &x);
-      if (e->u.ray.scatter != 0.0) add_scaled(st, HETINV_PARAM_SIGMA_S, end->k, e->u.ray.scatter, run);
+      if (e->u.ray.scatter) add_scaled(st, HETINV_PARAM_SIGMA_S, end->k, 1.0 / st->grid->sigma_s[end->k], run);
       continue;
     }
     int64_t k = e->u.at.voxel;
@@ -79,8 +79,8 @@ static void catch_up(const hv_jvp_state_t *st, const hv_path_log_t *log, size_t 
     }
     switch (e->kind) {
       case HV_LOG_SEGMENT: add_extinction(st, k, e->u.at.value, run); break;
-      case HV_LOG_SCATTER: add_scaled(st, HETINV_PARAM_SIGMA_S, k, e->u.at.value, run); break;
-      case HV_LOG_PHASE: add_scaled(st, HETINV_PARAM_G, k, e->u.at.value, run); break;
+      case HV_LOG_SCATTER: add_scaled(st, HETINV_PARAM_SIGMA_S, k, hv_log_vertex_score(st->grid, e, k), run); break;
+      case HV_LOG_PHASE: add_scaled(st, HETINV_PARAM_G, k, hv_log_vertex_score(st->grid, e, k), run); break;
       case HV_LOG_RAY: break;
     }
   }

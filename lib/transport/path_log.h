@@ -14,12 +14,18 @@
 #include <stdint.h>
 
 #include "hetinv/context.h"
+#include "medium/phase.h"
+#include "transport/grid.h"
 
+/* The vertex scores (1/σs; ∂ log f_p / ∂g) are worked out when the log is
+ * applied (hv_log_vertex_score), not when the entry is made: most paths
+ * never reach a sensor, and a scattering's three divisions and its σs load
+ * are then wasted. */
 typedef enum hv_log_kind {
   HV_LOG_SEGMENT, /* value = ℓ in voxel: ∂/∂σa = ∂/∂σs = -ℓ */
   HV_LOG_RAY,     /* a straight segment not yet split into voxels (uniform grids) */
-  HV_LOG_SCATTER, /* value = 1/σs of the vertex's voxel: ∂/∂σs */
-  HV_LOG_PHASE,   /* value = ∂ log f_p / ∂g at the vertex */
+  HV_LOG_SCATTER, /* a scattering vertex: ∂/∂σs = 1/σs of its voxel; value unused */
+  HV_LOG_PHASE,   /* value = cosθ of the vertex's scattering: ∂/∂g = ∂ log f_p(cosθ) / ∂g */
 } hv_log_kind_t;
 
 typedef struct hv_log_entry {
@@ -33,7 +39,7 @@ typedef struct hv_log_entry {
     } at;          /* SEGMENT, SCATTER, PHASE */
     struct {
       double p[3], d[3], length;
-      double scatter; /* 1/σs of a scattering vertex at its end, or 0 */
+      int scatter; /* 1: a scattering vertex ends it (its σs score), or 0 */
     } ray;         /* RAY */
   } u;
 } hv_log_entry_t;
@@ -78,7 +84,7 @@ static inline void hv_path_log_add_ray(hv_path_log_t *log, const double p[3], co
     e->u.ray.d[i] = d[i];
   }
   e->u.ray.length = length;
-  e->u.ray.scatter = 0.0;
+  e->u.ray.scatter = 0;
 }
 
 /* A vertex entry whose voxel is found from its position only if needed. */
@@ -93,12 +99,19 @@ static inline void hv_path_log_add_at(hv_path_log_t *log, hv_log_kind_t kind, co
   for (int i = 0; i < 3; ++i) e->u.at.p[i] = p[i];
 }
 
-/* Puts the σs score of the scattering vertex that ends the last RAY entry
- * into that entry (same running total: no splat happens in between). */
-static inline void hv_path_log_set_ray_scatter(hv_path_log_t *log, double value) {
+/* Marks the last RAY entry as ended by a scattering vertex, whose σs score
+ * it then carries (same running total: no splat happens in between). */
+static inline void hv_path_log_set_ray_scatter(hv_path_log_t *log) {
   if (log->count > 0 && log->entries[log->count - 1].kind == HV_LOG_RAY) {
-    log->entries[log->count - 1].u.ray.scatter = value;
+    log->entries[log->count - 1].u.ray.scatter = 1;
   }
+}
+
+/* The score of a SCATTER or PHASE entry at voxel k (the vertex's). */
+static inline double hv_log_vertex_score(const hv_grid_t *grid, const hv_log_entry_t *e, int64_t k) {
+  if (e->kind == HV_LOG_SCATTER) return 1.0 / grid->sigma_s[k];
+  const hv_phase_t phase = {HV_PHASE_HG, grid->voxel[k].g}; /* the tracer's phase at a vertex */
+  return hv_phase_dlog_dg(phase, e->u.at.value);
 }
 void hv_path_log_release(hv_path_log_t *log);
 

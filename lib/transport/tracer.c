@@ -38,7 +38,7 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
       /* -length·w to σa and σs of every voxel the ray crosses. */
       extinction_visit_t x = {gt, w};
       hv_walk_log_ray(grid, e, &end, add_extinction_visit, &x);
-      if (e->u.ray.scatter != 0.0) hv_grad_add(gt, HETINV_PARAM_SIGMA_S, end.k, e->u.ray.scatter * w);
+      if (e->u.ray.scatter) hv_grad_add(gt, HETINV_PARAM_SIGMA_S, end.k, (1.0 / grid->sigma_s[end.k]) * w);
       continue;
     }
     if (w == 0.0) continue;
@@ -51,8 +51,8 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
     }
     switch (e->kind) {
       case HV_LOG_SEGMENT: hv_grad_add_extinction(gt, k, -e->u.at.value * w); break;
-      case HV_LOG_SCATTER: hv_grad_add(gt, HETINV_PARAM_SIGMA_S, k, e->u.at.value * w); break;
-      case HV_LOG_PHASE: hv_grad_add(gt, HETINV_PARAM_G, k, e->u.at.value * w); break;
+      case HV_LOG_SCATTER: hv_grad_add(gt, HETINV_PARAM_SIGMA_S, k, hv_log_vertex_score(grid, e, k) * w); break;
+      case HV_LOG_PHASE: hv_grad_add(gt, HETINV_PARAM_G, k, hv_log_vertex_score(grid, e, k) * w); break;
       case HV_LOG_RAY: break;
     }
   }
@@ -139,9 +139,9 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
     }
     if (plog) {
       if (grid->uniform) {
-        hv_path_log_set_ray_scatter(plog, 1.0 / grid->sigma_s[r.k]); /* the flight just logged */
+        hv_path_log_set_ray_scatter(plog); /* the flight just logged */
       } else {
-        hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 1.0 / grid->sigma_s[r.k]);
+        hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 0.0);
       }
     }
     hv_phase_t phase = {HV_PHASE_HG, vx->g};
@@ -155,11 +155,10 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
     double cos_theta = hv_phase_sample(phase, r.d, hv_unit_from_u32(blk.v[2]),
                                        hv_unit_from_u32(blk.v[3]), d_new);
     if (plog) {
-      double score = hv_phase_dlog_dg(phase, cos_theta);
       if (grid->uniform) {
-        hv_path_log_add_at(plog, HV_LOG_PHASE, r.p, score); /* voxel found when applied */
+        hv_path_log_add_at(plog, HV_LOG_PHASE, r.p, cos_theta); /* voxel found when applied */
       } else {
-        hv_path_log_add(plog, HV_LOG_PHASE, r.k, score);
+        hv_path_log_add(plog, HV_LOG_PHASE, r.k, cos_theta);
       }
     }
     memcpy(r.d, d_new, sizeof r.d);
