@@ -4,8 +4,10 @@
  * tracking, 1 - exp(-∫σt), but costs one voxel lookup per tentative
  * collision instead of one step per voxel face: in a medium whose voxels
  * are smaller than a mean free path, or alike, far fewer. It yields no
- * per-voxel segment lengths, so only forward passes use it (score passes
- * step, walk.h); choose_tracking in grid.c decides per grid. */
+ * per-voxel segment lengths: a score pass logs the flight whole and steps
+ * through it (walk.h) only for a path that reaches a sensor. Since the
+ * kept collision has regular tracking's law, so has the path, and its
+ * score is that law's. choose_tracking in grid.c decides per grid. */
 #ifndef HV_DELTA_H
 #define HV_DELTA_H
 

@@ -42,10 +42,11 @@ typedef struct hv_grid {
    * pass then skip the voxel stepping (hv_ray_march_uniform). */
   int uniform;
   double inv_sigma_t;    /* uniform: 1/σt (inf for σt = 0) */
-  /* Forward passes of a non-uniform grid sample free flights by delta
-   * tracking against the majorant σ̄ = max σt when that is cheaper than
-   * stepping voxel by voxel (grid.c: choose_tracking); passes that score
-   * gradients need each voxel's segment and always step. */
+  /* Every pass samples a non-uniform grid's free flights by delta tracking
+   * against the majorant σ̄ = max σt when that is cheaper than stepping
+   * voxel by voxel (grid.c: choose_tracking). Score passes log such a
+   * flight whole and step through it only if a splat follows it
+   * (hv_grad_apply_log): the score needs each voxel's segment. */
   int delta;
   double majorant, inv_majorant;
   /* delta: per voxel, q = floor(256 σt/σ̄) clamped to 255, one byte: the

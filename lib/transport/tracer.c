@@ -118,9 +118,18 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
      * stream's buffered outputs, whose counters are never these. */
     philox4x32_ctr_t blk = hv_rng_block(rng);
     double depth = hv_exp_sample(tr->exp_table, (uint64_t)blk.v[0] << 32 | blk.v[1], rng);
-    int collided = !grad && grid->delta
-                       ? hv_ray_march_delta(grid, &r, depth, tr->exp_table, rng, &dist, &face)
-                       : hv_ray_march(grid, &r, depth, &dist, &face, plog);
+    int collided;
+    if (grid->delta) {
+      /* Delta tracking draws the collision from regular tracking's law, and
+       * the score is that law's (per-voxel segments, walk.h): the score
+       * pass logs the flight whole, as a uniform grid's, and splits it into
+       * voxels only if a splat follows it (hv_grad_apply_log). */
+      double p0[3] = {r.p[0], r.p[1], r.p[2]};
+      collided = hv_ray_march_delta(grid, &r, depth, tr->exp_table, rng, &dist, &face);
+      if (plog) hv_path_log_add_ray(plog, p0, r.d, dist);
+    } else {
+      collided = hv_ray_march(grid, &r, depth, &dist, &face, plog);
+    }
     tau += dist;
     if (!collided) {
       if (cross_boundary(tr, plan, rng, &r, face, w, tau, scatterings, tally)) break;
@@ -138,7 +147,7 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
       break;
     }
     if (plog) {
-      if (grid->uniform) {
+      if (grid->uniform || grid->delta) {
         hv_path_log_set_ray_scatter(plog); /* the flight just logged */
       } else {
         hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 0.0);
