@@ -16,11 +16,17 @@
  * Derivatives with respect to σa, σs and g of four voxels: the interior
  * voxel (1,1,1), the top voxel under the beam (1,1,2), a top corner voxel
  * (0,2,2) and the bottom voxel under the beam (1,1,0): 4·3·3 = 36
- * comparisons.
+ * comparisons, and 12 more for "hemi" measured alone (below).
  *
  * Gradient. hetinv_estimator_gradient with a one-hot cotangent on value n
  * gives ∂I_n/∂π for every voxel at once (identity map of all three
  * parameters); its standard error comes from 256 batch means (255 dof).
+ * The grid is tracked by delta tracking (its cost model picks it for these
+ * voxels), but a score pass whose plan has a vertex sensor (the pixel's
+ * next-event connections) steps voxel by voxel; "hemi" alone, a set whose
+ * plan has only an exit sensor, takes the other way: delta-tracked flights
+ * logged whole and split into voxels when the path scores. Its gradient is
+ * compared with the same finite differences.
  *
  * Finite difference. D = (I(π + h) − I(π − h)) / 2h, both renders with the
  * same random stream (common random numbers: the photons keep their random
@@ -57,7 +63,7 @@
 
 #include "test_gradient_common.h"
 
-#define COMPARISONS 36
+#define COMPARISONS 48
 #define STREAMS 64            /* independent CRN finite differences */
 #define FD_PHOTONS 2.4e5      /* per side of each difference, all streams together */
 #define GRAD_PHOTONS 2e5      /* per gradient call */
@@ -78,6 +84,7 @@ typedef struct scene {
   hetinv_sensor_t *pixel, *hemi;
   hetinv_pathlength_t *steady, *bin;
   hetinv_measurements_t *set;
+  hetinv_measurements_t *hemi_only; /* value 2 of set alone */
 } scene_t;
 
 static void scene_build(scene_t *s) {
@@ -110,9 +117,12 @@ static void scene_build(scene_t *s) {
   assert_ok(hetinv_measurements_add(s->set, s->beam, s->pixel, s->bin, NULL));
   assert_ok(hetinv_measurements_add(s->set, s->beam, s->hemi, s->steady, NULL));
   assert_int_equal(hetinv_measurements_value_count(s->set), VALUES);
+  assert_ok(hetinv_measurements_create(s->ctx, &s->hemi_only));
+  assert_ok(hetinv_measurements_add(s->hemi_only, s->beam, s->hemi, s->steady, NULL));
 }
 
 static void scene_destroy(scene_t *s) {
+  hetinv_measurements_destroy(&s->hemi_only);
   hetinv_measurements_destroy(&s->set);
   hetinv_pathlength_destroy(&s->bin);
   hetinv_pathlength_destroy(&s->steady);
@@ -176,12 +186,14 @@ static void gradient_matches_crn_finite_differences(void **state) {
     cot[n] = 1.0;
     assert_ok(hetinv_estimator_gradient(est, s.medium, s.set, cot, VALUES, map, grad[n], grad_se[n], 81));
   }
+  double alone[81], alone_se[81], one = 1.0;
+  assert_ok(hetinv_estimator_gradient(est, s.medium, s.hemi_only, &one, 1, map, alone, alone_se, 81));
   double photons;
   assert_ok(hetinv_estimator_get_param(est, HETINV_ESTIMATOR_PHOTONS, &photons));
   double t2 = grad_now();
   printf("finite differences: %d x 2 renders of %.0f photons x %d streams in %.1f s; "
          "gradients: %d calls of %.0f photons in %.1f s\n",
-         NVOX * 3, per_stream, STREAMS, t1 - t0, VALUES, photons, t2 - t1);
+         NVOX * 3, per_stream, STREAMS, t1 - t0, VALUES + 1, photons, t2 - t1);
 
   int failures = 0;
   for (int v = 0; v < NVOX; ++v) {
@@ -195,6 +207,12 @@ static void gradient_matches_crn_finite_differences(void **state) {
                                   grad[n][(size_t)p * 27 + k], grad_se[n][(size_t)p * 27 + k],
                                   GRAD_BATCH_DOF, COMPARISONS, seed);
       }
+      char name[96];
+      snprintf(name, sizeof name, "fd/hemi alone/%s/(%d,%d,%d)/h=%.4g", hetinv_param_name(p),
+               (int)voxel[v][0], (int)voxel[v][1], (int)voxel[v][2], h_used[v][p]);
+      failures += !grad_compare(name, fd_mean[v][p][2], fd_se[v][p][2], STREAMS - 1.0,
+                                alone[(size_t)p * 27 + k], alone_se[(size_t)p * 27 + k],
+                                GRAD_BATCH_DOF, COMPARISONS, seed);
     }
   }
   hetinv_estimator_destroy(&est);
