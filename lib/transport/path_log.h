@@ -23,7 +23,7 @@
  * are then wasted. */
 typedef enum hv_log_kind {
   HV_LOG_SEGMENT, /* value = ℓ in voxel: ∂/∂σa = ∂/∂σs = -ℓ */
-  HV_LOG_RAY,     /* a straight segment not yet split into voxels (uniform grids) */
+  HV_LOG_RAY,     /* a flight not yet split into voxels (uniform grids; delta-tracked flights) */
   HV_LOG_SCATTER, /* a scattering vertex: ∂/∂σs = 1/σs of its voxel; value unused */
   HV_LOG_PHASE,   /* value = cosθ of the vertex's scattering: ∂/∂g = ∂ log f_p(cosθ) / ∂g */
 } hv_log_kind_t;
