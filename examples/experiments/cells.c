@@ -68,6 +68,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->multiscale != 0.0) {
     key_append(key, key_size, " multiscale=%.17g", sc->multiscale);
   }
+  if (sc->box_margin != 0.0) {
+    key_append(key, key_size, " box_margin=%.17g", sc->box_margin);
+  }
   if (sc->loss_clip != 0.0) {
     key_append(key, key_size, " loss_clip=%.17g", sc->loss_clip);
   }

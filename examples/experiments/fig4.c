@@ -10,7 +10,7 @@
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
  *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
- *               [--smoothness L] [--multiscale A] [--truth-photons N]
+ *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]
  *               [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -82,7 +82,10 @@
  * smoothness prior of weight L in the loss's units (optimizer.smoothness;
  * default 0, none); --multiscale A
  * adds A times each coarser block's mean gradient to every entry's
- * (optimizer.multiscale; default 1 with --full, 0 reduced); --truth-photons N
+ * (optimizer.multiscale; default 1 with --full, 0 reduced); --box-margin M
+ * lets the iterates leave each box by M of its width (in ln π under log
+ * coordinates) and projects only their average onto it
+ * (optimizer.box_margin; default 0); --truth-photons N
  * renders the simulated measurements with N photons per source
  * (acquisition.photons; default 120000 with --full, 30000 reduced): their
  * Monte Carlo error is part of the data's noise;

@@ -15,7 +15,7 @@ static int usage(const char *what) {
           "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]\n"
           "                   [--independent-errors] [--pooled-errors]\n"
           "                   [--expected-camera-errors] [--residual-weights]\n"
-          "                   [--smoothness L] [--multiscale A] [--truth-photons N]\n"
+          "                   [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]\n"
           "                   [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -33,7 +33,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .truth_photons = -1, .coarse_window = -1,
       .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4,
       .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .epsilon_start = -1.0,
-      .loss_clip = -1.0, .loss_clip_errors = -1, .smoothness = -1.0, .multiscale = -1.0,
+      .loss_clip = -1.0, .loss_clip_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
       .coordinates = -1,
   };
   for (int i = 1; i < argc; ++i) {
@@ -139,6 +139,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
     } else if (strcmp(a, "--multiscale") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 100.0, &o->multiscale) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--box-margin") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1.0, &o->box_margin) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--decay") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &o->decay) < 0) return 2;
       ++i;
@@ -189,6 +192,7 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->loss_clip_errors >= 0) sc->loss_clip_errors = o->loss_clip_errors;
   if (o->smoothness >= 0.0) sc->smoothness = o->smoothness;
   if (o->multiscale >= 0.0) sc->multiscale = o->multiscale;
+  if (o->box_margin >= 0.0) sc->box_margin = o->box_margin;
   if (o->truth_photons > 0) sc->truth_photons = o->truth_photons;
   if (o->independent_errors) sc->independent_errors = true;
   if (o->pooled_errors) sc->pooled_errors = true;

@@ -169,6 +169,10 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
     fprintf(f, ", \"multiscale\": ");
     put_number(f, sc->multiscale);
   }
+  if (sc->box_margin > 0.0) {
+    fprintf(f, ", \"box_margin\": ");
+    put_number(f, sc->box_margin);
+  }
   fprintf(f, ",\n");
   fprintf(f, "                \"bounds\": {");
   for (int p = 0; p < 3; ++p) {

@@ -148,6 +148,7 @@ typedef struct recon_scene {
   double time_budget;
   double smoothness;            /* the smoothness prior's weight (HETINV_OPTIMIZER_SMOOTHNESS); 0: none */
   double multiscale;            /* the multi-scale step's weight (HETINV_OPTIMIZER_MULTISCALE); 0: none */
+  double box_margin;            /* how far iterates may leave the bounds (HETINV_OPTIMIZER_BOX_MARGIN); 0: not */
   int32_t bound_spacing;        /* maps past the dense Fisher limit: the blocks' probe spacing (0: 2) */
   double bounds_lo[3], bounds_hi[3];
   double init[3];               /* uniform initial values */

@@ -354,7 +354,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
-                                        "epsilon_start", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "bounds",
+                                        "epsilon_start", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
                                         "init", "levels", "layerwise_layers", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
@@ -385,6 +385,11 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_number(jr, o, "optimizer", "multiscale", JR_OPTIONAL, &sc->multiscale) < 0) return -1;
   if (!(sc->multiscale >= 0.0 && sc->multiscale <= 100.0)) {
     return jr_fail(jr, "optimizer.multiscale", "is %g; expected a number from 0 (none) to 100", sc->multiscale);
+  }
+  if (jr_number(jr, o, "optimizer", "box_margin", JR_OPTIONAL, &sc->box_margin) < 0) return -1;
+  if (!(sc->box_margin >= 0.0 && sc->box_margin <= 1.0)) {
+    return jr_fail(jr, "optimizer.box_margin", "is %g; expected a number from 0 (iterates in the bounds) to 1",
+                   sc->box_margin);
   }
   if (read_triplet_object(jr, o, "optimizer", "bounds", sc->bounds_lo, sc->bounds_hi) < 0) return -1;
   for (int p = 0; p < 3; ++p) sc->init[p] = 0.5 * (sc->bounds_lo[p] + sc->bounds_hi[p]);

@@ -67,6 +67,7 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *s
       {HETINV_OPTIMIZER_TIME_BUDGET, sc->time_budget},
       {HETINV_OPTIMIZER_SMOOTHNESS, sc->smoothness},
       {HETINV_OPTIMIZER_MULTISCALE, sc->multiscale},
+      {HETINV_OPTIMIZER_BOX_MARGIN, sc->box_margin},
       {HETINV_OPTIMIZER_ITERATIONS, (double)sc->iterations},
       {HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 10},
   };

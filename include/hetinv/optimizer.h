@@ -143,7 +143,20 @@ enum hetinv_optimizer_param_id {
    *  definite preconditioner), so it changes the path, not the loss or its
    *  minimum. Frozen entries neither move nor enter the means. Added in 0.2. */
   HETINV_OPTIMIZER_MULTISCALE = 15,
-  HETINV_OPTIMIZER_PARAM_COUNT_ = 16 /**< not a parameter: one past the last */
+  /** How far the iterates may leave each parameter's box (default 0: not
+   *  at all; [0, 1]), as a fraction m of its width: [lo − m·w, hi + m·w]
+   *  natively, [lo·(hi/lo)^−m, hi·(hi/lo)^m] for an entry that moves in
+   *  ln π (HETINV_COORDINATES_LOG), never below 0 for σa and σs nor outside
+   *  [−0.99, 0.99] for g. The averaged iterate (a stage's hand-on to the
+   *  next, the result, hetinv_optimizer_get_pi averaged) is projected onto
+   *  the box itself. Where the truth lies on or near a bound, iterates that
+   *  wander about it are clipped on one side only, and their average lands
+   *  inside the box, off the truth; free to cross the bound, they average
+   *  to it. The renders in between see values outside the box, so the
+   *  box's outer band must be physical: set it where a value beyond the
+   *  box is only unlikely, not impossible. Added in 0.2. */
+  HETINV_OPTIMIZER_BOX_MARGIN = 16,
+  HETINV_OPTIMIZER_PARAM_COUNT_ = 17 /**< not a parameter: one past the last */
 };
 
 /** Coordinates of the descent: values of HETINV_OPTIMIZER_COORDINATES. Pinned values. */
@@ -449,7 +462,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_result(const hetinv_optimizer_t *opt
 /**
  * @brief The current stage's π: the last iterate or the trailing average.
  * @param optimizer the optimizer.
- * @param averaged non-zero for the trailing average, 0 for the last iterate.
+ * @param averaged non-zero for the trailing average (in the box), 0 for the
+ *        last iterate (outside the box by up to HETINV_OPTIMIZER_BOX_MARGIN).
  * @param[out] pi receives the stage's π.
  * @param count length of @p pi; must equal the stage map's size.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;

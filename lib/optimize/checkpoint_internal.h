@@ -10,12 +10,13 @@
 
 #define HV_CKPT_MAGIC "HVCKPT01"
 #define HV_CKPT_BYTE_ORDER_TAG UINT64_C(0x0102030405060708)
-/* Format 5 added HETINV_OPTIMIZER_MULTISCALE to the fingerprint's
- * tunables, format 4 HETINV_OPTIMIZER_SMOOTHNESS, format 3
- * HETINV_ESTIMATOR_LOSS_CLIP to its estimator tunables. Formats 2 to 4 are
- * still read: the tunables they lack were 0 (no multi-scale step, no
- * prior, least squares) in every such run. */
-#define HV_CKPT_FORMAT_VERSION 5u
+/* Format 6 added HETINV_OPTIMIZER_BOX_MARGIN to the fingerprint's
+ * tunables, format 5 HETINV_OPTIMIZER_MULTISCALE, format 4
+ * HETINV_OPTIMIZER_SMOOTHNESS, format 3 HETINV_ESTIMATOR_LOSS_CLIP to its
+ * estimator tunables. Formats 2 to 5 are still read: the tunables they
+ * lack were 0 (iterates inside the box, no multi-scale step, no prior,
+ * least squares) in every such run. */
+#define HV_CKPT_FORMAT_VERSION 6u
 #define HV_CKPT_FORMAT_OLDEST 2u
 #define HV_CKPT_FNV_OFFSET UINT64_C(0xcbf29ce484222325)
 

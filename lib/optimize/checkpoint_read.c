@@ -210,16 +210,17 @@ static hetinv_result_t check_position(const reader_t *rd, const hetinv_optimizer
   return HETINV_SUCCESS;
 }
 
-/* Entries finite and inside the box of the stage (NaN is not; an
- * unbounded side of the box does not admit an infinity). */
+/* Entries finite and inside the range the stage's iterates move in (its
+ * box, widened by HETINV_OPTIMIZER_BOX_MARGIN; NaN is not; an unbounded
+ * side does not admit an infinity). */
 static hetinv_result_t check_in_box(const reader_t *rd, const hetinv_optimizer_t *opt, const double *v,
                                     const char *what, int32_t slot) {
   for (size_t i = 0; i < opt->k; ++i) {
-    if (!(isfinite(v[i]) && v[i] >= opt->lo_k[i] && v[i] <= opt->hi_k[i])) {
+    if (!(isfinite(v[i]) && v[i] >= opt->move_lo_k[i] && v[i] <= opt->move_hi_k[i])) {
       char where[64] = "";
       if (slot >= 0) snprintf(where, sizeof where, " (iterate %d of the averaging ring)", (int)slot);
-      return corrupt(rd, "%s[%zu]%s is %.17g; its bounds are [%.17g, %.17g]", what, i, where, v[i], opt->lo_k[i],
-                     opt->hi_k[i]);
+      return corrupt(rd, "%s[%zu]%s is %.17g; its bounds are [%.17g, %.17g]", what, i, where, v[i],
+                     opt->move_lo_k[i], opt->move_hi_k[i]);
     }
   }
   return HETINV_SUCCESS;
@@ -372,14 +373,16 @@ static uint64_t stored_checksum(const reader_t *rd) {
  * tunable lists end before the tunables added since (each the last of its
  * list when added), which read as 0, their value in every such run. */
 static void read_fingerprint(reader_t *rd, uint64_t version, hv_ckpt_fingerprint_t *saved) {
-  _Static_assert(HETINV_OPTIMIZER_MULTISCALE + 1 == HETINV_OPTIMIZER_PARAM_COUNT_, "MULTISCALE is the last tunable");
+  _Static_assert(HETINV_OPTIMIZER_BOX_MARGIN + 1 == HETINV_OPTIMIZER_PARAM_COUNT_, "BOX_MARGIN is the last tunable");
+  _Static_assert(HETINV_OPTIMIZER_MULTISCALE + 1 == HETINV_OPTIMIZER_BOX_MARGIN, "MULTISCALE came just before");
   _Static_assert(HETINV_OPTIMIZER_SMOOTHNESS + 1 == HETINV_OPTIMIZER_MULTISCALE, "SMOOTHNESS came just before");
   _Static_assert(HETINV_ESTIMATOR_LOSS_CLIP + 1 == HETINV_ESTIMATOR_PARAM_COUNT_, "LOSS_CLIP is the last tunable");
   _Static_assert(offsetof(hv_ckpt_fingerprint_t, lo) ==
                      offsetof(hv_ckpt_fingerprint_t, param) + sizeof saved->param, "no padding");
   _Static_assert(offsetof(hv_ckpt_fingerprint_t, set_hash) ==
                      offsetof(hv_ckpt_fingerprint_t, est_param) + sizeof saved->est_param, "no padding");
-  size_t params = version >= 5   ? HETINV_OPTIMIZER_PARAM_COUNT_
+  size_t params = version >= 6   ? HETINV_OPTIMIZER_PARAM_COUNT_
+                  : version >= 5 ? HETINV_OPTIMIZER_BOX_MARGIN
                   : version >= 4 ? HETINV_OPTIMIZER_MULTISCALE
                                  : HETINV_OPTIMIZER_SMOOTHNESS;
   size_t est_params = version >= 3 ? HETINV_ESTIMATOR_PARAM_COUNT_ : HETINV_ESTIMATOR_LOSS_CLIP;

@@ -78,8 +78,8 @@ static void reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, s
   double s = opt->pi[i], g = opt->pi[j], q = 1.0 - g;
   double gr = opt->grad[i] / q, gg = opt->grad[j] + opt->grad[i] * s / q;
   double dr = delta(m, opt, i, gr), dg = delta(m, opt, j, gg);
-  double g_new = clamp(g - dg, opt->lo_k[j], opt->hi_k[j]);
-  double s_new = clamp((s * q - dr) / (1.0 - g_new), opt->lo_k[i], opt->hi_k[i]);
+  double g_new = clamp(g - dg, opt->move_lo_k[j], opt->move_hi_k[j]);
+  double s_new = clamp((s * q - dr) / (1.0 - g_new), opt->move_lo_k[i], opt->move_hi_k[i]);
   *di = s - s_new;
   *dj = g - g_new;
   opt->pi[i] = s_new;
@@ -96,8 +96,8 @@ static void log_reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t 
   double s = opt->pi[i], g = opt->pi[j], q = 1.0 - g;
   double gu = opt->grad[i] * s, gg = opt->grad[j] + opt->grad[i] * s / q;
   double du = delta_at(m, opt, i, gu, su), dg = delta(m, opt, j, gg);
-  double g_new = clamp(g - dg, opt->lo_k[j], opt->hi_k[j]);
-  opt->pi[i] = clamp(s * q * exp(-du) / (1.0 - g_new), opt->lo_k[i], opt->hi_k[i]);
+  double g_new = clamp(g - dg, opt->move_lo_k[j], opt->move_hi_k[j]);
+  opt->pi[i] = clamp(s * q * exp(-du) / (1.0 - g_new), opt->move_lo_k[i], opt->move_hi_k[i]);
   opt->pi[j] = g_new;
   *du_scaled = du / su;
   *dj = g - g_new;
@@ -145,13 +145,13 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
     } else if (s > 0.0) {
       double pi = opt->pi[i];
       double du = delta_at(&m, opt, i, pi * opt->grad[i], s);
-      opt->pi[i] = clamp(pi * exp(-du), opt->lo_k[i], opt->hi_k[i]);
+      opt->pi[i] = clamp(pi * exp(-du), opt->move_lo_k[i], opt->move_hi_k[i]);
       sq += (du / s) * (du / s);
       ++moved;
       continue;
     } else {
       d = delta(&m, opt, i, opt->grad[i]);
-      opt->pi[i] = clamp(opt->pi[i] - d, opt->lo_k[i], opt->hi_k[i]);
+      opt->pi[i] = clamp(opt->pi[i] - d, opt->move_lo_k[i], opt->move_hi_k[i]);
     }
     sq += (d / opt->scale[i]) * (d / opt->scale[i]);
     ++moved;

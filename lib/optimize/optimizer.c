@@ -31,6 +31,7 @@ static const param_info_t PARAMS[HETINV_OPTIMIZER_PARAM_COUNT_] = {
     [HETINV_OPTIMIZER_COORDINATES] = {HETINV_COORDINATES_NATIVE, 0, HETINV_COORDINATES_COUNT_ - 1, true, "HETINV_OPTIMIZER_COORDINATES"},
     [HETINV_OPTIMIZER_SMOOTHNESS] = {0, 0, 1e12, false, "HETINV_OPTIMIZER_SMOOTHNESS"},
     [HETINV_OPTIMIZER_MULTISCALE] = {0, 0, 100, false, "HETINV_OPTIMIZER_MULTISCALE"},
+    [HETINV_OPTIMIZER_BOX_MARGIN] = {0, 0, 1, false, "HETINV_OPTIMIZER_BOX_MARGIN"},
 };
 
 const char *hv_optimizer_param_name(hetinv_optimizer_param_t param) {
@@ -73,7 +74,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
 void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt) {
   const hetinv_context_t *ctx = opt->ctx;
   double **arrays[] = {&opt->pi, &opt->acc1, &opt->acc2, &opt->ring,
-                       &opt->scale, &opt->lo_k, &opt->hi_k, &opt->grad, &opt->multiscale};
+                       &opt->scale, &opt->lo_k, &opt->hi_k, &opt->move_lo_k, &opt->move_hi_k,
+                       &opt->grad, &opt->multiscale};
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i) {
     hv_free(ctx, *arrays[i]);
     *arrays[i] = NULL;
@@ -289,7 +291,7 @@ hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t 
   /* Allocated before the old state is released, so that a failure leaves
    * the optimizer as it was (a failed stage change can then be retried). */
   int32_t window = (int32_t)opt->param[HETINV_OPTIMIZER_AVERAGE_WINDOW];
-  enum { VECTORS = 8 };
+  enum { VECTORS = 10 };
   double *v[VECTORS + 1];
   bool ok = true;
   for (int i = 0; i < VECTORS; ++i) {
@@ -310,6 +312,7 @@ hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t 
   opt->window = window;
   opt->pi = v[0], opt->acc1 = v[1], opt->acc2 = v[2], opt->scale = v[3];
   opt->lo_k = v[4], opt->hi_k = v[5], opt->grad = v[6], opt->multiscale = v[7], opt->ring = v[VECTORS];
+  opt->move_lo_k = v[8], opt->move_hi_k = v[9];
   opt->pair_of_sigma_s = pairs[0], opt->pair_of_g = pairs[1];
   opt->k = k;
   hv_optimizer_stage_bounds(opt);
@@ -345,7 +348,35 @@ static void pair_cells(hetinv_optimizer_t *opt) {
   }
 }
 
-/* Each entry's box and scale, from its parameter's bounds. */
+/* The range entry i's iterates move in: its box widened by
+ * HETINV_OPTIMIZER_BOX_MARGIN (in ln π where the entry moves in it, as
+ * methods.c's log_scale decides), within the parameter's physical range. */
+static void move_range(const hetinv_optimizer_t *opt, hetinv_param_t p, size_t i, double *lo, double *hi) {
+  double m = opt->param[HETINV_OPTIMIZER_BOX_MARGIN], a = opt->lo_k[i], b = opt->hi_k[i];
+  *lo = a;
+  *hi = b;
+  if (m == 0.0) return;
+  int c = (int)opt->param[HETINV_OPTIMIZER_COORDINATES];
+  bool logs = (c == HETINV_COORDINATES_LOG || c == HETINV_COORDINATES_LOG_REDUCED) && a > 0.0 &&
+              b > a && isfinite(b);
+  if (logs) {
+    double f = pow(b / a, m);
+    *lo = a / f;
+    *hi = b * f;
+  } else if (isfinite(b)) {
+    *lo = a - m * (b - a);
+    *hi = b + m * (b - a);
+  }
+  if (p == HETINV_PARAM_G) {
+    *lo = fmax(*lo, -0.99);
+    *hi = fmin(*hi, 0.99);
+  } else {
+    *lo = fmax(*lo, 0.0);
+  }
+}
+
+/* Each entry's box, the range its iterates move in, and its scale, from
+ * its parameter's bounds. */
 void hv_optimizer_stage_bounds(hetinv_optimizer_t *opt) {
   const hetinv_param_map_t *map = opt->stages[opt->stage].map;
   for (size_t i = 0; i < opt->k; ++i) {
@@ -353,6 +384,7 @@ void hv_optimizer_stage_bounds(hetinv_optimizer_t *opt) {
     hetinv_param_map_entry(map, i, &p, NULL);
     opt->lo_k[i] = opt->lo[p];
     opt->hi_k[i] = opt->hi[p];
+    move_range(opt, p, i, &opt->move_lo_k[i], &opt->move_hi_k[i]);
     double width = opt->hi[p] - opt->lo[p];
     opt->scale[i] = isfinite(width) ? width : 1.0;
   }
@@ -365,12 +397,13 @@ hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt) {
   if (r != HETINV_SUCCESS) return r;
   r = hetinv_param_map_extract(st->map, opt->base, opt->pi, opt->k);
   if (r != HETINV_SUCCESS) return r;
-  for (size_t i = 0; i < opt->k; ++i) opt->pi[i] = fmin(fmax(opt->pi[i], opt->lo_k[i]), opt->hi_k[i]);
+  for (size_t i = 0; i < opt->k; ++i) opt->pi[i] = fmin(fmax(opt->pi[i], opt->move_lo_k[i]), opt->move_hi_k[i]);
   return HETINV_SUCCESS;
 }
 
 /* Mean of the stage's window of most recent iterates in the ring, oldest
- * first (a fixed order). */
+ * first (a fixed order), projected onto the box (the iterates may have
+ * left it by HETINV_OPTIMIZER_BOX_MARGIN). */
 void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out) {
   size_t k = opt->k;
   int32_t count = opt->ring_count;
@@ -378,15 +411,16 @@ void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out) {
   if (stage_window > 0 && stage_window < count) count = stage_window;
   if (count == 0) {
     memcpy(out, opt->pi, k * sizeof(double));
-    return;
+  } else {
+    for (size_t i = 0; i < k; ++i) out[i] = 0.0;
+    int32_t oldest = (opt->ring_head - count + opt->window) % opt->window;
+    for (int32_t j = 0; j < count; ++j) {
+      const double *it = opt->ring + (size_t)((oldest + j) % opt->window) * k;
+      for (size_t i = 0; i < k; ++i) out[i] += it[i];
+    }
+    for (size_t i = 0; i < k; ++i) out[i] /= count;
   }
-  for (size_t i = 0; i < k; ++i) out[i] = 0.0;
-  int32_t oldest = (opt->ring_head - count + opt->window) % opt->window;
-  for (int32_t j = 0; j < count; ++j) {
-    const double *it = opt->ring + (size_t)((oldest + j) % opt->window) * k;
-    for (size_t i = 0; i < k; ++i) out[i] += it[i];
-  }
-  for (size_t i = 0; i < k; ++i) out[i] /= count;
+  for (size_t i = 0; i < k; ++i) out[i] = fmin(fmax(out[i], opt->lo_k[i]), opt->hi_k[i]);
 }
 
 HETINV_API hetinv_result_t hetinv_optimizer_get_pi(const hetinv_optimizer_t *optimizer,

@@ -61,7 +61,9 @@ struct hetinv_optimizer {
   bool have_est_param, verify_est_param;
 
   /* Derived per stage (not saved: recomputed from the configuration). */
-  double *scale, *lo_k, *hi_k, *grad;
+  /* lo_k, hi_k: each entry's box; move_lo_k, move_hi_k: the range its
+   * iterates move in (the box widened by HETINV_OPTIMIZER_BOX_MARGIN). */
+  double *scale, *lo_k, *hi_k, *move_lo_k, *move_hi_k, *grad;
   double *multiscale; /* the multi-scale step's block sums (2k doubles) */
   /* Reduced coordinates: the g entry of each free σs entry's cell when that
    * g is free too (else -1), and the inverse (-1 for an unpaired entry). */

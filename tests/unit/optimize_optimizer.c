@@ -297,6 +297,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
       {HETINV_OPTIMIZER_COORDINATES, HETINV_COORDINATES_NATIVE, 0, HETINV_COORDINATES_COUNT_ - 1},
       {HETINV_OPTIMIZER_SMOOTHNESS, 0, 0, 1e12},
       {HETINV_OPTIMIZER_MULTISCALE, 0, 0, 100},
+      {HETINV_OPTIMIZER_BOX_MARGIN, 0, 0, 1},
   };
   assert_int_equal(sizeof expect / sizeof expect[0], HETINV_OPTIMIZER_PARAM_COUNT_);
   for (size_t i = 0; i < sizeof expect / sizeof expect[0]; ++i) {
@@ -318,7 +319,7 @@ static void tunables_have_documented_defaults_and_bounds(void **state) {
   double lo = 7;
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(-1, &lo, NULL));
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_param_bounds(HETINV_OPTIMIZER_PARAM_COUNT_, &lo, NULL));
-  assert_message_contains("16");
+  assert_message_contains("17");
   assert_true(lo == 7);
   hetinv_optimizer_destroy(&opt);
 }
@@ -375,7 +376,7 @@ static void tunables_reject_bad_values_naming_them(void **state) {
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, -1, 0));
   assert_message_contains("-1");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PARAM_COUNT_, 0));
-  assert_message_contains("16");
+  assert_message_contains("17");
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_get_param(opt, 99, &v));
   assert_message_contains("99");
   hetinv_optimizer_destroy(&opt);
@@ -513,6 +514,7 @@ static void hand_init(hand_t *h, int method) {
   o->k = 3;
   o->pi = h->pi, o->acc1 = h->acc1, o->acc2 = h->acc2, o->grad = h->grad;
   o->scale = h->scale, o->lo_k = h->lo, o->hi_k = h->hi;
+  o->move_lo_k = h->lo, o->move_hi_k = h->hi; /* no margin */
   const double pi[3] = {5, 5, 0.2}, scale[3] = {9, 9, 1.98}, lo[3] = {1, 1, -0.99}, hi[3] = {10, 10, 0.99};
   memcpy(h->pi, pi, sizeof pi);
   memcpy(h->scale, scale, sizeof scale);
@@ -836,6 +838,57 @@ static void iterates_never_leave_the_box(void **state) {
     hetinv_medium_destroy(&m);
     free(log);
     hetinv_optimizer_destroy(&opt);
+  }
+}
+
+/* HETINV_OPTIMIZER_BOX_MARGIN: the iterates move in the box widened by
+ * the margin (natively by m·width each side, in ln π by the factor
+ * (hi/lo)^m) and do leave the box; every average, the stages' hand-on
+ * and the result are in the box. */
+static void iterates_leave_the_box_by_its_margin(void **state) {
+  const problem_t *p = *state;
+  for (int coordinates = HETINV_COORDINATES_NATIVE; coordinates <= HETINV_COORDINATES_LOG; coordinates += 2) {
+    for (int method = HETINV_METHOD_ADADELTA; method <= HETINV_METHOD_SGD; ++method) {
+      setup_t s = two_stage_setup(p);
+      s.method = method;
+      s.iterations[0] = s.iterations[1] = 6;
+      hetinv_optimizer_t *opt = make_optimizer(p, &s);
+      assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 4.0, 4.5));
+      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_LEARNING_RATE, 1e6));
+      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 1));
+      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, coordinates));
+      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_BOX_MARGIN, 0.5));
+      double lo = 3.75, hi = 4.75; /* natively: 4 - 0.5·0.5, 4.5 + 0.5·0.5 */
+      if (coordinates == HETINV_COORDINATES_LOG) {
+        lo = 4.0 / sqrt(4.5 / 4.0);
+        hi = 4.5 * sqrt(4.5 / 4.0);
+      }
+      pi_log_t *log = calloc(1, sizeof *log);
+      log->opt = opt;
+      assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+      assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+      assert_int_equal(log->count, 12);
+      bool outside = false;
+      for (int i = 0; i < log->count; ++i) {
+        size_t k = log->progress[i].stage == 0 ? 1 : 4;
+        for (size_t j = 0; j < k; ++j) {
+          double x = log->pi[i][j];
+          assert_true(x >= lo * (1 - 1e-15) && x <= hi * (1 + 1e-15));
+          assert_true(log->avg[i][j] >= 4.0 && log->avg[i][j] <= 4.5);
+          outside |= x < 4.0 || x > 4.5;
+        }
+      }
+      assert_true(outside); /* the margin was used */
+      hetinv_medium_t *m = NULL;
+      assert_ok(hetinv_optimizer_result(opt, &m));
+      for (size_t v = 0; v < 4; ++v) {
+        double x = hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S)[v];
+        assert_true(x >= 4.0 && x <= 4.5);
+      }
+      hetinv_medium_destroy(&m);
+      free(log);
+      hetinv_optimizer_destroy(&opt);
+    }
   }
 }
 
@@ -1537,7 +1590,7 @@ static void damaged_checkpoints_are_refused(void **state) {
   /* An intact file of a later or an earlier format version is
    * unsupported, not corrupt. */
   memcpy(copy, data, len);
-  uint64_t version = 6;
+  uint64_t version = 7;
   memcpy(copy + 16, &version, 8);
   sum = fnv1a64(copy, len - 8);
   memcpy(copy + len - 8, &sum, 8);
@@ -1819,16 +1872,19 @@ static void forged_checkpoints_are_refused(void **state) {
   assert_int_equal(failures, 0);
 }
 
-/* The checkpoint at `data` rewritten in an older format: version 4 lacks
- * HETINV_OPTIMIZER_MULTISCALE in the fingerprint's tunables, version 3
- * also HETINV_OPTIMIZER_SMOOTHNESS (the two last of the list), version 2
+/* The checkpoint at `data` rewritten in an older format: version 5 lacks
+ * HETINV_OPTIMIZER_BOX_MARGIN in the fingerprint's tunables, version 4
+ * also HETINV_OPTIMIZER_MULTISCALE, version 3 also
+ * HETINV_OPTIMIZER_SMOOTHNESS (the last of the list each time), version 2
  * also HETINV_ESTIMATOR_LOSS_CLIP in its estimator tunables (the last of
  * its list). Returns the new length. */
 static size_t older_format(const unsigned char *data, size_t len, uint64_t version, unsigned char *out) {
   layout_t l = coarse_layout(len);
-  size_t multiscale = 24 + 8 * (4 + 3 * 64 + HETINV_OPTIMIZER_MULTISCALE);
-  size_t cut[2] = {version == 4 ? multiscale : multiscale - 8, l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP};
-  size_t bytes[2] = {version == 4 ? 8 : 16, 8};
+  int first = version == 5 ? HETINV_OPTIMIZER_BOX_MARGIN
+              : version == 4 ? HETINV_OPTIMIZER_MULTISCALE
+                             : HETINV_OPTIMIZER_SMOOTHNESS; /* the first tunable it lacks */
+  size_t cut[2] = {24 + 8 * (4 + 3 * 64 + (size_t)first), l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP};
+  size_t bytes[2] = {8 * (size_t)(HETINV_OPTIMIZER_PARAM_COUNT_ - first), 8};
   int cuts = version == 2 ? 2 : 1;
   size_t n = 0, from = 0;
   for (int c = 0; c < cuts; ++c) {
@@ -1844,11 +1900,12 @@ static size_t older_format(const unsigned char *data, size_t len, uint64_t versi
   return n;
 }
 
-/* Checkpoints of formats 2 to 4 (before HETINV_ESTIMATOR_LOSS_CLIP,
- * HETINV_OPTIMIZER_SMOOTHNESS and HETINV_OPTIMIZER_MULTISCALE: tunables
- * fewer in the fingerprint) resume as least squares without a prior or a
- * multi-scale step and finish as the uninterrupted run; under a clipped
- * loss (formats 2), a prior (2, 3) or a multi-scale step they are refused. */
+/* Checkpoints of formats 2 to 5 (before HETINV_ESTIMATOR_LOSS_CLIP,
+ * HETINV_OPTIMIZER_SMOOTHNESS, HETINV_OPTIMIZER_MULTISCALE and
+ * HETINV_OPTIMIZER_BOX_MARGIN: tunables fewer in the fingerprint) resume
+ * as least squares without a prior, a multi-scale step or a margin and
+ * finish as the uninterrupted run; under a clipped loss (formats 2), a
+ * prior (2, 3), a multi-scale step (2-4) or a margin they are refused. */
 static void older_format_checkpoints_resume(void **state) {
   const problem_t *p = *state;
   ht_tmpdir_create("optimizer-older-formats");
@@ -1863,7 +1920,7 @@ static void older_format_checkpoints_resume(void **state) {
   assert_non_null(older);
   outcome_t *o = calloc(2, sizeof *o);
   reference_run(p, &s, 1, &o[0]);
-  for (uint64_t version = 2; version <= 4; ++version) {
+  for (uint64_t version = 2; version <= 5; ++version) {
     ht_write_file(old, older, older_format(data, len, version, older));
     resume_and_finish(p, &s, old, 4, &o[0], &o[1]);
     assert_same_outcome(&o[0], &o[1]);
@@ -1883,6 +1940,11 @@ static void older_format_checkpoints_resume(void **state) {
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_MULTISCALE, 0.5));
     assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_resume(opt, old));
     assert_message_contains("HETINV_OPTIMIZER_MULTISCALE is 0 in the checkpoint and 0.5 here");
+    hetinv_optimizer_destroy(&opt);
+    opt = make_optimizer(p, &s);
+    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_BOX_MARGIN, 0.25));
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_resume(opt, old));
+    assert_message_contains("HETINV_OPTIMIZER_BOX_MARGIN is 0 in the checkpoint and 0.25 here");
     hetinv_optimizer_destroy(&opt);
   }
   free(o);
@@ -2157,6 +2219,7 @@ int main(void) {
       cmocka_unit_test(every_method_moves_sigma_s_toward_the_truth),
       cmocka_unit_test(iterates_never_leave_the_box),
       cmocka_unit_test(frozen_entries_never_move),
+      cmocka_unit_test(iterates_leave_the_box_by_its_margin),
       cmocka_unit_test(masked_values_give_no_gradient),
       cmocka_unit_test(minibatches_are_reproducible),
       cmocka_unit_test(minibatches_keep_the_clip_scales),

@@ -28,7 +28,7 @@ OPTIMIZER_PARAMS = {"method": 0, "decay": 1, "epsilon": 2, "learning_rate": 3, "
                     "beta2": 5, "minibatch": 6, "iterations": 7, "time_budget": 8,
                     "plateau_window": 9, "plateau_tolerance": 10, "average_window": 11,
                     "checkpoint_interval": 12, "coordinates": 13,
-                    "smoothness": 14, "multiscale": 15}
+                    "smoothness": 14, "multiscale": 15, "box_margin": 16}
 
 COORDINATES_NATIVE, COORDINATES_REDUCED, COORDINATES_LOG, COORDINATES_LOG_REDUCED = range(4)
 COORDINATES = {"native": 0, "reduced": 1, "log": 2, "log-reduced": 3}
