@@ -11,7 +11,7 @@
  *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]
- *               [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]
+ *               [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]
  *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]
@@ -109,8 +109,9 @@
  * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
  * as (σs(1 − g), g), --coordinates log (the default, the built-in
  * scene's) each value with a positive box in ln π, --coordinates
- * log-reduced both: σs and g as (ln σs(1 − g), g), the rest in ln π
- * (optimizer.coordinates). --min-snr S leaves out of
+ * log-reduced both: σs and g as (ln σs(1 − g), g), the rest in ln π,
+ * --coordinates log-mean-ratio σa and σs as (ln √(σa·σs), ln √(σa/σs)),
+ * the rest in ln π (optimizer.coordinates). --min-snr S leaves out of
  * the loss and the bound every value whose standard error exceeds
  * value/S (acquisition.min_snr of hetinv-reconstruct; default 3, 0 keeps
  * every value).

@@ -16,7 +16,7 @@ static int usage(const char *what) {
           "                   [--independent-errors] [--pooled-errors]\n"
           "                   [--expected-camera-errors] [--residual-weights]\n"
           "                   [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]\n"
-          "                   [--coordinates native|reduced|log|log-reduced] [--grid N] [--scale S]\n"
+          "                   [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]\n"

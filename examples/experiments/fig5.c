@@ -10,7 +10,7 @@
  *               [--threads N] [--min-snr S] [--lighting probes|cameras]
  *               [--loss-clip C] [--coarse-window N]
  *               [--source-stride N] [--smoothness L] [--multiscale A]
- *               [--coordinates native|reduced|log|log-reduced] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]
+ *               [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-spacing S] [--recovered DIR]
  *               [--quiet] [--write-scene]
  *
@@ -77,7 +77,7 @@ static void print_usage(FILE *f) {
           "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
           "                   [--loss-clip C] [--coarse-window N]\n"
           "                   [--source-stride N] [--smoothness L] [--multiscale A]\n"
-          "                   [--coordinates native|reduced|log|log-reduced] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]\n"
+          "                   [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-spacing S] [--recovered DIR]\n"
           "                   [--quiet] [--write-scene]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"

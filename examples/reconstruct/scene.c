@@ -15,7 +15,7 @@ static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
 const char *const recon_weighting_names[] = {"variance", "relative", "uniform", "residual", NULL};
 const char *const recon_clip_errors_names[] = {"data", "residual", "residual_above", NULL};
 const char *const recon_method_names[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
-const char *const recon_coordinate_names[] = {"native", "reduced", "log", "log-reduced", NULL};
+const char *const recon_coordinate_names[] = {"native", "reduced", "log", "log-reduced", "log-mean-ratio", NULL};
 
 void recon_scene_default(recon_scene_t *sc) {
   memset(sc, 0, sizeof *sc);

@@ -183,7 +183,17 @@ enum hetinv_coordinates_id {
    *  box moves in ln π. The result, bounds, averaging and π stay native.
    *  Added in 0.3. */
   HETINV_COORDINATES_LOG_REDUCED = 3,
-  HETINV_COORDINATES_COUNT_ = 4 /**< not a value: one past the last */
+  /** Where a cell's σa and σs are both free and their boxes positive and
+   *  bounded, they move as (ln √(σa·σs), ln √(σa/σs)), every other entry as
+   *  under HETINV_COORDINATES_LOG. Diffuse light is set mostly by the
+   *  product (μeff² ≈ 3σa·σs(1 − g)), so in (ln σa, ln σs) the loss is a
+   *  narrow valley along ln σa + ln σs = const, which a per-entry step
+   *  crosses fast and follows slowly, trading one for the other; here the
+   *  valley lies along the ratio's axis, whose step adapts to its own
+   *  gradient. Both take the mean of the two boxes' ln(hi/lo) as their
+   *  scale. Added in 0.2. */
+  HETINV_COORDINATES_LOG_MEAN_RATIO = 4,
+  HETINV_COORDINATES_COUNT_ = 5 /**< not a value: one past the last */
 };
 
 /** Why a run ended: a value of enum hetinv_stop_reason_id. */

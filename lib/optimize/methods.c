@@ -16,7 +16,11 @@
  * worst voxels at full size). In ln π the wander is relative.
  *
  * HETINV_COORDINATES_LOG_REDUCED is both: a pair moves in (ln σs', g), every
- * other entry as under HETINV_COORDINATES_LOG. */
+ * other entry as under HETINV_COORDINATES_LOG.
+ *
+ * HETINV_COORDINATES_LOG_MEAN_RATIO moves a cell's σa and σs as
+ * (p, q) = ((ln σa + ln σs)/2, (ln σa − ln σs)/2): steady light's valley
+ * between the two (the product is what diffusion sees) lies along q. */
 #include <math.h>
 
 #include "optimize/optimizer_internal.h"
@@ -103,6 +107,21 @@ static void log_reduced_step(const method_t *m, hetinv_optimizer_t *opt, size_t 
   *dj = g - g_new;
 }
 
+/* One step of σa entry i and its cell's σs entry j in (p, q) (the header):
+ * ln σa = p + q, ln σs = p − q, so ∂L/∂p = σa·∂L/∂σa + σs·∂L/∂σs and
+ * ∂L/∂q = σa·∂L/∂σa − σs·∂L/∂σs; both at scale s. Returns the two moves
+ * (in units of s) through *dp_scaled, *dq_scaled. */
+static void mean_ratio_step(const method_t *m, hetinv_optimizer_t *opt, size_t i, size_t j, double s,
+                            double *dp_scaled, double *dq_scaled) {
+  double a = opt->pi[i], b = opt->pi[j];
+  double ga = a * opt->grad[i], gb = b * opt->grad[j];
+  double dp = delta_at(m, opt, i, ga + gb, s), dq = delta_at(m, opt, j, ga - gb, s);
+  opt->pi[i] = clamp(a * exp(-dp - dq), opt->move_lo_k[i], opt->move_hi_k[i]);
+  opt->pi[j] = clamp(b * exp(-dp + dq), opt->move_lo_k[j], opt->move_hi_k[j]);
+  *dp_scaled = dp / s;
+  *dq_scaled = dq / s;
+}
+
 double hv_stage_epsilon(const hetinv_optimizer_t *opt) {
   const double end = opt->param[HETINV_OPTIMIZER_EPSILON];
   const hv_stage_t *st = &opt->stages[opt->stage];
@@ -123,14 +142,32 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
                 epsilon,
                 par[HETINV_OPTIMIZER_LEARNING_RATE], b1, b2, 1.0 - pow(b1, t), 1.0 - pow(b2, t)};
   int coordinates = (int)par[HETINV_OPTIMIZER_COORDINATES];
+  bool mean_ratio = coordinates == HETINV_COORDINATES_LOG_MEAN_RATIO;
   bool reduced = coordinates == HETINV_COORDINATES_REDUCED || coordinates == HETINV_COORDINATES_LOG_REDUCED;
-  bool logs = coordinates == HETINV_COORDINATES_LOG || coordinates == HETINV_COORDINATES_LOG_REDUCED;
+  bool logs = coordinates == HETINV_COORDINATES_LOG || coordinates == HETINV_COORDINATES_LOG_REDUCED || mean_ratio;
+  bool paired = reduced || mean_ratio;
   double sq = 0.0;
   size_t moved = 0;
   for (size_t i = 0; i < opt->k; ++i) {
-    if ((frozen && frozen[i]) || (reduced && opt->pair_of_g[i] >= 0)) continue;
-    int64_t j = reduced ? opt->pair_of_sigma_s[i] : -1;
+    int64_t j = paired ? opt->pair_second[i] : -1;
     double d = 0.0, s = logs ? log_scale(opt, i) : 0.0;
+    if (mean_ratio) {
+      /* A pair whose boxes both allow logs steps when its σa entry comes;
+       * otherwise each entry steps alone in ln π (or natively). */
+      int64_t first = opt->pair_first[i];
+      bool pair_ok = j >= 0 && s > 0.0 && log_scale(opt, (size_t)j) > 0.0;
+      if (first >= 0 && log_scale(opt, (size_t)first) > 0.0 && s > 0.0) continue;
+      if (frozen && frozen[i]) continue;
+      if (pair_ok) {
+        double dp = 0.0, dq = 0.0, sp = 0.5 * (s + log_scale(opt, (size_t)j));
+        mean_ratio_step(&m, opt, i, (size_t)j, sp, &dp, &dq);
+        sq += dp * dp + dq * dq;
+        moved += 2;
+        continue;
+      }
+      j = -1;
+    }
+    if ((frozen && frozen[i]) || (reduced && opt->pair_first[i] >= 0)) continue;
     if (j >= 0 && s > 0.0) {
       double du = 0.0, dj = 0.0;
       log_reduced_step(&m, opt, i, (size_t)j, s, &du, &dj);

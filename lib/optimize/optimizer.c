@@ -80,9 +80,9 @@ void hv_optimizer_free_stage_arrays(hetinv_optimizer_t *opt) {
     hv_free(ctx, *arrays[i]);
     *arrays[i] = NULL;
   }
-  hv_free(ctx, opt->pair_of_sigma_s);
-  hv_free(ctx, opt->pair_of_g);
-  opt->pair_of_sigma_s = opt->pair_of_g = NULL;
+  hv_free(ctx, opt->pair_second);
+  hv_free(ctx, opt->pair_first);
+  opt->pair_second = opt->pair_first = NULL;
   opt->k = 0;
   opt->ring_count = opt->ring_head = 0;
 }
@@ -313,38 +313,43 @@ hetinv_result_t hv_optimizer_alloc_stage_arrays(hetinv_optimizer_t *opt, size_t 
   opt->pi = v[0], opt->acc1 = v[1], opt->acc2 = v[2], opt->scale = v[3];
   opt->lo_k = v[4], opt->hi_k = v[5], opt->grad = v[6], opt->multiscale = v[7], opt->ring = v[VECTORS];
   opt->move_lo_k = v[8], opt->move_hi_k = v[9];
-  opt->pair_of_sigma_s = pairs[0], opt->pair_of_g = pairs[1];
+  opt->pair_second = pairs[0], opt->pair_first = pairs[1];
   opt->k = k;
   hv_optimizer_stage_bounds(opt);
   pair_cells(opt);
   return HETINV_SUCCESS;
 }
 
-/* The reduced coordinates' pairs: each free σs entry and the free g entry
- * of its cell. pair_of_g first serves as the table cell -> σs entry (a
- * block has one entry per cell, so its cells are < k). */
+/* The pairs of entries that step together (optimizer_internal.h): the
+ * free `first` entry of each cell and the free `second` entry of the same
+ * cell. pair_first first serves as the table cell -> first entry (a block
+ * has one entry per cell, so its cells are < k). */
 static void pair_cells(hetinv_optimizer_t *opt) {
   const hv_stage_t *st = &opt->stages[opt->stage];
   size_t k = opt->k;
-  int64_t *by_cell = opt->pair_of_g;
-  for (size_t i = 0; i < k; ++i) opt->pair_of_sigma_s[i] = by_cell[i] = -1;
+  int c = (int)opt->param[HETINV_OPTIMIZER_COORDINATES];
+  bool mean_ratio = c == HETINV_COORDINATES_LOG_MEAN_RATIO;
+  hetinv_param_t first = mean_ratio ? HETINV_PARAM_SIGMA_A : HETINV_PARAM_SIGMA_S;
+  hetinv_param_t second = mean_ratio ? HETINV_PARAM_SIGMA_S : HETINV_PARAM_G;
+  int64_t *by_cell = opt->pair_first;
+  for (size_t i = 0; i < k; ++i) opt->pair_second[i] = by_cell[i] = -1;
   for (size_t i = 0; i < k; ++i) {
     hetinv_param_t p = HETINV_PARAM_SIGMA_A;
     size_t cell = 0;
     hetinv_param_map_entry(st->map, i, &p, &cell);
-    if (p == HETINV_PARAM_SIGMA_S && cell < k && !(st->frozen && st->frozen[i])) by_cell[cell] = (int64_t)i;
+    if (p == first && cell < k && !(st->frozen && st->frozen[i])) by_cell[cell] = (int64_t)i;
   }
   for (size_t j = 0; j < k; ++j) {
     hetinv_param_t p = HETINV_PARAM_SIGMA_A;
     size_t cell = 0;
     hetinv_param_map_entry(st->map, j, &p, &cell);
-    if (p == HETINV_PARAM_G && cell < k && by_cell[cell] >= 0 && !(st->frozen && st->frozen[j])) {
-      opt->pair_of_sigma_s[by_cell[cell]] = (int64_t)j;
+    if (p == second && cell < k && by_cell[cell] >= 0 && !(st->frozen && st->frozen[j])) {
+      opt->pair_second[by_cell[cell]] = (int64_t)j;
     }
   }
   for (size_t i = 0; i < k; ++i) by_cell[i] = -1;
   for (size_t i = 0; i < k; ++i) {
-    if (opt->pair_of_sigma_s[i] >= 0) by_cell[opt->pair_of_sigma_s[i]] = (int64_t)i;
+    if (opt->pair_second[i] >= 0) by_cell[opt->pair_second[i]] = (int64_t)i;
   }
 }
 

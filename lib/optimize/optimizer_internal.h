@@ -65,9 +65,12 @@ struct hetinv_optimizer {
    * iterates move in (the box widened by HETINV_OPTIMIZER_BOX_MARGIN). */
   double *scale, *lo_k, *hi_k, *move_lo_k, *move_hi_k, *grad;
   double *multiscale; /* the multi-scale step's block sums (2k doubles) */
-  /* Reduced coordinates: the g entry of each free σs entry's cell when that
-   * g is free too (else -1), and the inverse (-1 for an unpaired entry). */
-  int64_t *pair_of_sigma_s, *pair_of_g;
+  /* Entries that step together (methods.c): reduced coordinates pair each
+   * free σs entry (first) with its cell's free g entry (second), mean-ratio
+   * coordinates each free σa entry with its cell's free σs entry.
+   * pair_second[i]: the second entry of first entry i (else -1);
+   * pair_first[j]: the first entry of second entry j (else -1). */
+  int64_t *pair_second, *pair_first;
 };
 
 /* optimizer.c */

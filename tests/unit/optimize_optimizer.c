@@ -524,12 +524,12 @@ static void hand_init(hand_t *h, int method) {
 
 /* hand_init, with entries 0 (σs) and 2 (g) one cell's pair, stepping in
  * `coordinates`. */
-static int64_t hand_pair_of_sigma_s[3] = {2, -1, -1}, hand_pair_of_g[3] = {-1, -1, 0};
+static int64_t hand_pair_second[3] = {2, -1, -1}, hand_pair_first[3] = {-1, -1, 0};
 static void hand_init_pair(hand_t *h, int method, int coordinates) {
   hand_init(h, method);
   h->opt.param[HETINV_OPTIMIZER_COORDINATES] = coordinates;
-  h->opt.pair_of_sigma_s = hand_pair_of_sigma_s;
-  h->opt.pair_of_g = hand_pair_of_g;
+  h->opt.pair_second = hand_pair_second;
+  h->opt.pair_first = hand_pair_first;
 }
 
 static void adadelta_steps_match_hand_computation(void **state) {
@@ -693,6 +693,53 @@ static void log_coordinates_step_by_a_factor(void **state) {
   h.grad[0] = 10.0;
   hv_method_step(&h.opt, NULL, 0.01);
   assert_true(h.pi[0] == 1.0);
+}
+
+/* Mean-ratio coordinates: entries 0 (σa-like) and 1 (σs-like, both boxes
+ * [1, 10]) of one cell step as p = (ln π0 + ln π1)/2, q = (ln π0 − ln π1)/2,
+ * entry 2 (g, box [-0.99, 0.99]) natively. SGD at scale s = ln 10:
+ * δp = rate·s²·(π0·g0 + π1·g1), δq = rate·s²·(π0·g0 − π1·g1); then
+ * π0·exp(−δp − δq), π1·exp(−δp + δq). */
+static int64_t mr_pair_second[3] = {1, -1, -1}, mr_pair_first[3] = {-1, 0, -1};
+static void mean_ratio_coordinates_step_the_product_and_the_ratio(void **state) {
+  (void)state;
+  hand_t h;
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_MEAN_RATIO;
+  h.opt.pair_second = mr_pair_second;
+  h.opt.pair_first = mr_pair_first;
+  h.pi[1] = 2.0;
+  h.grad[0] = 0.01, h.grad[1] = 0.03, h.grad[2] = 0.02;
+  double s = log(10.0);
+  double ga = 5.0 * 0.01, gb = 2.0 * 0.03;
+  double dp = 0.1 * s * s * (ga + gb), dq = 0.1 * s * s * (ga - gb), dg = 0.1 * 1.98 * 1.98 * 0.02;
+  double rms = hv_method_step(&h.opt, NULL, 0.01);
+  assert_close(h.pi[0], 5.0 * exp(-dp - dq), 1e-14);
+  assert_close(h.pi[1], 2.0 * exp(-dp + dq), 1e-14);
+  assert_close(h.pi[2], 0.2 - dg, 1e-14);
+  double d2 = dg / 1.98;
+  assert_close(rms, sqrt(((dp / s) * (dp / s) + (dq / s) * (dq / s) + d2 * d2) / 3), 1e-14);
+  /* A gradient that only trades one for the other (π0·g0 = −π1·g1) moves
+   * the ratio alone: the product is unchanged. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_MEAN_RATIO;
+  h.opt.pair_second = mr_pair_second;
+  h.opt.pair_first = mr_pair_first;
+  h.grad[0] = 0.01, h.grad[1] = -0.01;
+  hv_method_step(&h.opt, NULL, 0.01);
+  assert_close(h.pi[0] * h.pi[1], 25.0, 1e-13);
+  assert_true(h.pi[0] < 5.0 && h.pi[1] > 5.0);
+  /* Frozen σa: σs steps alone in ln π. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_MEAN_RATIO;
+  int64_t none[3] = {-1, -1, -1};
+  h.opt.pair_second = none;
+  h.opt.pair_first = none;
+  h.grad[1] = 0.01;
+  const uint8_t frozen[3] = {1, 0, 0};
+  hv_method_step(&h.opt, frozen, 0.01);
+  assert_true(h.pi[0] == 5.0);
+  assert_close(h.pi[1], 5.0 * exp(-0.1 * s * s * 0.05), 1e-14);
 }
 
 /* Log-reduced coordinates: σs (entry 0) and g (entry 2) of one cell step
@@ -2216,6 +2263,7 @@ int main(void) {
       cmocka_unit_test(reduced_coordinates_step_by_the_chain_rule),
       cmocka_unit_test(log_coordinates_step_by_a_factor),
       cmocka_unit_test(log_reduced_coordinates_step_by_the_chain_rule),
+      cmocka_unit_test(mean_ratio_coordinates_step_the_product_and_the_ratio),
       cmocka_unit_test(every_method_moves_sigma_s_toward_the_truth),
       cmocka_unit_test(iterates_never_leave_the_box),
       cmocka_unit_test(frozen_entries_never_move),

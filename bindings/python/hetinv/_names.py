@@ -30,8 +30,8 @@ OPTIMIZER_PARAMS = {"method": 0, "decay": 1, "epsilon": 2, "learning_rate": 3, "
                     "checkpoint_interval": 12, "coordinates": 13,
                     "smoothness": 14, "multiscale": 15, "box_margin": 16}
 
-COORDINATES_NATIVE, COORDINATES_REDUCED, COORDINATES_LOG, COORDINATES_LOG_REDUCED = range(4)
-COORDINATES = {"native": 0, "reduced": 1, "log": 2, "log-reduced": 3}
+COORDINATES_NATIVE, COORDINATES_REDUCED, COORDINATES_LOG, COORDINATES_LOG_REDUCED, COORDINATES_LOG_MEAN_RATIO = range(5)
+COORDINATES = {"native": 0, "reduced": 1, "log": 2, "log-reduced": 3, "log-mean-ratio": 4}
 
 STOP_NONE, STOP_COMPLETED, STOP_TIME_BUDGET, STOP_CALLBACK = range(4)
 STOP_REASONS = {0: "none", 1: "completed", 2: "time_budget", 3: "callback"}
