@@ -701,13 +701,17 @@ static void log_coordinates_step_by_a_factor(void **state) {
  * δp = rate·s²·(π0·g0 + π1·g1), δq = rate·s²·(π0·g0 − π1·g1); then
  * π0·exp(−δp − δq), π1·exp(−δp + δq). */
 static int64_t mr_pair_second[3] = {1, -1, -1}, mr_pair_first[3] = {-1, 0, -1};
+static void hand_init_mean_ratio(hand_t *h) {
+  hand_init(h, HETINV_METHOD_SGD);
+  h->opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_MEAN_RATIO;
+  h->opt.pair_second = mr_pair_second;
+  h->opt.pair_first = mr_pair_first;
+}
+
 static void mean_ratio_coordinates_step_the_product_and_the_ratio(void **state) {
   (void)state;
   hand_t h;
-  hand_init(&h, HETINV_METHOD_SGD);
-  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_MEAN_RATIO;
-  h.opt.pair_second = mr_pair_second;
-  h.opt.pair_first = mr_pair_first;
+  hand_init_mean_ratio(&h);
   h.pi[1] = 2.0;
   h.grad[0] = 0.01, h.grad[1] = 0.03, h.grad[2] = 0.02;
   double s = log(10.0);
@@ -721,17 +725,13 @@ static void mean_ratio_coordinates_step_the_product_and_the_ratio(void **state) 
   assert_close(rms, sqrt(((dp / s) * (dp / s) + (dq / s) * (dq / s) + d2 * d2) / 3), 1e-14);
   /* A gradient that only trades one for the other (π0·g0 = −π1·g1) moves
    * the ratio alone: the product is unchanged. */
-  hand_init(&h, HETINV_METHOD_SGD);
-  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_MEAN_RATIO;
-  h.opt.pair_second = mr_pair_second;
-  h.opt.pair_first = mr_pair_first;
+  hand_init_mean_ratio(&h);
   h.grad[0] = 0.01, h.grad[1] = -0.01;
   hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[0] * h.pi[1], 25.0, 1e-13);
   assert_true(h.pi[0] < 5.0 && h.pi[1] > 5.0);
   /* Frozen σa: σs steps alone in ln π. */
-  hand_init(&h, HETINV_METHOD_SGD);
-  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_MEAN_RATIO;
+  hand_init_mean_ratio(&h);
   int64_t none[3] = {-1, -1, -1};
   h.opt.pair_second = none;
   h.opt.pair_first = none;
@@ -850,41 +850,54 @@ static int log_pi(const hetinv_progress_t *progress, void *user) {
   return 0;
 }
 
+/* Runs two stages of `method` in `coordinates` with σs's box [4, 4.5], a
+ * huge rate (SGD bounces between the bounds, ADADELTA walks into one) and
+ * HETINV_OPTIMIZER_BOX_MARGIN `margin`: every iterate lies in [lo, hi],
+ * every average and the result in the box. *at_bound: an iterate sat on a
+ * bound of the box; *outside: one lay beyond it. */
+static void run_against_the_box(const problem_t *p, int method, int coordinates, double margin, double lo,
+                                double hi, bool *at_bound, bool *outside) {
+  setup_t s = two_stage_setup(p);
+  s.method = method;
+  s.iterations[0] = s.iterations[1] = 6;
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 4.0, 4.5));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_LEARNING_RATE, 1e6));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 1));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, coordinates));
+  assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_BOX_MARGIN, margin));
+  pi_log_t *log = calloc(1, sizeof *log);
+  log->opt = opt;
+  assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  assert_int_equal(log->count, 12);
+  *at_bound = *outside = false;
+  for (int i = 0; i < log->count; ++i) {
+    size_t k = log->progress[i].stage == 0 ? 1 : 4;
+    for (size_t j = 0; j < k; ++j) {
+      double x = log->pi[i][j];
+      assert_true(x >= lo * (1 - 1e-15) && x <= hi * (1 + 1e-15));
+      assert_true(log->avg[i][j] >= 4.0 && log->avg[i][j] <= 4.5);
+      *at_bound |= x == 4.0 || x == 4.5;
+      *outside |= x < 4.0 || x > 4.5;
+    }
+  }
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_optimizer_result(opt, &m));
+  for (size_t v = 0; v < 4; ++v) {
+    double x = hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S)[v];
+    assert_true(x >= 4.0 && x <= 4.5);
+  }
+  hetinv_medium_destroy(&m);
+  free(log);
+  hetinv_optimizer_destroy(&opt);
+}
+
 static void iterates_never_leave_the_box(void **state) {
-  const problem_t *p = *state;
-  /* SGD with a huge rate bounces between the bounds; ADADELTA walks into one. */
   for (int method = HETINV_METHOD_ADADELTA; method <= HETINV_METHOD_SGD; ++method) {
-    setup_t s = two_stage_setup(p);
-    s.method = method;
-    s.iterations[0] = s.iterations[1] = 6;
-    hetinv_optimizer_t *opt = make_optimizer(p, &s);
-    assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 4.0, 4.5));
-    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_LEARNING_RATE, 1e6));
-    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 1));
-    pi_log_t *log = calloc(1, sizeof *log);
-    log->opt = opt;
-    assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
-    assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
-    assert_int_equal(log->count, 12);
-    bool at_bound = false;
-    for (int i = 0; i < log->count; ++i) {
-      size_t k = log->progress[i].stage == 0 ? 1 : 4;
-      for (size_t j = 0; j < k; ++j) {
-        assert_true(log->pi[i][j] >= 4.0 && log->pi[i][j] <= 4.5);
-        assert_true(log->avg[i][j] >= 4.0 && log->avg[i][j] <= 4.5);
-        at_bound |= log->pi[i][j] == 4.0 || log->pi[i][j] == 4.5;
-      }
-    }
+    bool at_bound = false, outside = false;
+    run_against_the_box(*state, method, HETINV_COORDINATES_NATIVE, 0.0, 4.0, 4.5, &at_bound, &outside);
     assert_true(at_bound); /* the projection was exercised */
-    hetinv_medium_t *m = NULL;
-    assert_ok(hetinv_optimizer_result(opt, &m));
-    for (size_t v = 0; v < 4; ++v) {
-      double x = hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S)[v];
-      assert_true(x >= 4.0 && x <= 4.5);
-    }
-    hetinv_medium_destroy(&m);
-    free(log);
-    hetinv_optimizer_destroy(&opt);
   }
 }
 
@@ -893,48 +906,16 @@ static void iterates_never_leave_the_box(void **state) {
  * (hi/lo)^m) and do leave the box; every average, the stages' hand-on
  * and the result are in the box. */
 static void iterates_leave_the_box_by_its_margin(void **state) {
-  const problem_t *p = *state;
   for (int coordinates = HETINV_COORDINATES_NATIVE; coordinates <= HETINV_COORDINATES_LOG; coordinates += 2) {
     for (int method = HETINV_METHOD_ADADELTA; method <= HETINV_METHOD_SGD; ++method) {
-      setup_t s = two_stage_setup(p);
-      s.method = method;
-      s.iterations[0] = s.iterations[1] = 6;
-      hetinv_optimizer_t *opt = make_optimizer(p, &s);
-      assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 4.0, 4.5));
-      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_LEARNING_RATE, 1e6));
-      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 1));
-      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, coordinates));
-      assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_BOX_MARGIN, 0.5));
       double lo = 3.75, hi = 4.75; /* natively: 4 - 0.5·0.5, 4.5 + 0.5·0.5 */
       if (coordinates == HETINV_COORDINATES_LOG) {
         lo = 4.0 / sqrt(4.5 / 4.0);
         hi = 4.5 * sqrt(4.5 / 4.0);
       }
-      pi_log_t *log = calloc(1, sizeof *log);
-      log->opt = opt;
-      assert_ok(hetinv_optimizer_set_progress(opt, log_pi, log));
-      assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
-      assert_int_equal(log->count, 12);
-      bool outside = false;
-      for (int i = 0; i < log->count; ++i) {
-        size_t k = log->progress[i].stage == 0 ? 1 : 4;
-        for (size_t j = 0; j < k; ++j) {
-          double x = log->pi[i][j];
-          assert_true(x >= lo * (1 - 1e-15) && x <= hi * (1 + 1e-15));
-          assert_true(log->avg[i][j] >= 4.0 && log->avg[i][j] <= 4.5);
-          outside |= x < 4.0 || x > 4.5;
-        }
-      }
+      bool at_bound = false, outside = false;
+      run_against_the_box(*state, method, coordinates, 0.5, lo, hi, &at_bound, &outside);
       assert_true(outside); /* the margin was used */
-      hetinv_medium_t *m = NULL;
-      assert_ok(hetinv_optimizer_result(opt, &m));
-      for (size_t v = 0; v < 4; ++v) {
-        double x = hetinv_medium_grid(m, HETINV_PARAM_SIGMA_S)[v];
-        assert_true(x >= 4.0 && x <= 4.5);
-      }
-      hetinv_medium_destroy(&m);
-      free(log);
-      hetinv_optimizer_destroy(&opt);
     }
   }
 }
