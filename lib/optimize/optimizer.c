@@ -362,8 +362,9 @@ static void move_range(const hetinv_optimizer_t *opt, hetinv_param_t p, size_t i
   *hi = b;
   if (m == 0.0) return;
   int c = (int)opt->param[HETINV_OPTIMIZER_COORDINATES];
-  bool logs = (c == HETINV_COORDINATES_LOG || c == HETINV_COORDINATES_LOG_REDUCED) && a > 0.0 &&
-              b > a && isfinite(b);
+  bool logs = (c == HETINV_COORDINATES_LOG || c == HETINV_COORDINATES_LOG_REDUCED ||
+               c == HETINV_COORDINATES_LOG_MEAN_RATIO) &&
+              a > 0.0 && b > a && isfinite(b);
   if (logs) {
     double f = pow(b / a, m);
     *lo = a / f;
