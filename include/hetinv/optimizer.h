@@ -146,8 +146,8 @@ enum hetinv_optimizer_param_id {
   /** How far the iterates may leave each parameter's box (default 0: not
    *  at all; [0, 1]), as a fraction m of its width: [lo − m·w, hi + m·w]
    *  natively, [lo·(hi/lo)^−m, hi·(hi/lo)^m] for an entry that moves in
-   *  ln π (HETINV_COORDINATES_LOG), never below 0 for σa and σs nor outside
-   *  [−0.99, 0.99] for g. The averaged iterate (a stage's hand-on to the
+   *  ln π (HETINV_COORDINATES_LOG), never below 0 for σa and σs nor past
+   *  ±0.99 for g (unless the box itself reaches further). The averaged iterate (a stage's hand-on to the
    *  next, the result, hetinv_optimizer_get_pi averaged) is projected onto
    *  the box itself. Where the truth lies on or near a bound, iterates that
    *  wander about it are clipped on one side only, and their average lands

@@ -373,9 +373,9 @@ static void move_range(const hetinv_optimizer_t *opt, hetinv_param_t p, size_t i
     *lo = a - m * (b - a);
     *hi = b + m * (b - a);
   }
-  if (p == HETINV_PARAM_G) {
-    *lo = fmax(*lo, -0.99);
-    *hi = fmin(*hi, 0.99);
+  if (p == HETINV_PARAM_G) { /* never narrower than the box, which may reach past ±0.99 */
+    *lo = fmax(*lo, fmin(a, -0.99));
+    *hi = fmin(*hi, fmax(b, 0.99));
   } else {
     *lo = fmax(*lo, 0.0);
   }
