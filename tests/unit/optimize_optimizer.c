@@ -920,6 +920,41 @@ static void iterates_leave_the_box_by_its_margin(void **state) {
   }
 }
 
+/* The range each entry moves in, white-box: σs's box [4, 4.5] widened
+ * natively by 0.5 of its width and, in ln π, by the factor √(4.5/4); a
+ * g box reaching past ±0.99 is never narrowed to ±0.99. */
+static void the_margin_widens_each_range_within_physics(void **state) {
+  const problem_t *p = *state;
+  const struct { int coordinates; double lo, hi; } expect[] = {
+      {HETINV_COORDINATES_NATIVE, 3.75, 4.75},
+      {HETINV_COORDINATES_LOG, 4.0 / sqrt(4.5 / 4.0), 4.5 * sqrt(4.5 / 4.0)},
+  };
+  hetinv_param_map_t *g_map = NULL;
+  assert_ok(hetinv_param_map_create_identity(p->initial, HETINV_FREE(HETINV_PARAM_G), &g_map));
+  for (size_t c = 0; c < 3; ++c) {
+    hetinv_optimizer_t *opt = NULL;
+    assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+    assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 4.0, 4.5));
+    assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_G, -0.999, 0.5));
+    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_BOX_MARGIN, 0.5));
+    if (c < 2) assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, expect[c].coordinates));
+    hetinv_stage_t st = {sizeof st, c < 2 ? p->identity : g_map, 1, NULL, NULL, 0.0, 0};
+    assert_ok(hetinv_optimizer_add_stage(opt, &st));
+    assert_ok(hv_optimizer_alloc_stage_arrays(opt, 4));
+    for (size_t i = 0; i < 4; ++i) {
+      if (c < 2) {
+        assert_close(opt->move_lo_k[i], expect[c].lo, 1e-14);
+        assert_close(opt->move_hi_k[i], expect[c].hi, 1e-14);
+      } else { /* g natively: [-0.999 - 0.75, 0.5 + 0.75] cut to [-0.999, 0.99] */
+        assert_true(opt->move_lo_k[i] == -0.999 && opt->move_hi_k[i] == 0.99);
+      }
+      assert_true(opt->lo_k[i] == (c < 2 ? 4.0 : -0.999));
+    }
+    hetinv_optimizer_destroy(&opt);
+  }
+  hetinv_param_map_destroy(&g_map);
+}
+
 static void frozen_entries_never_move(void **state) {
   const problem_t *p = *state;
   hetinv_optimizer_t *opt = NULL;
@@ -2249,6 +2284,7 @@ int main(void) {
       cmocka_unit_test(iterates_never_leave_the_box),
       cmocka_unit_test(frozen_entries_never_move),
       cmocka_unit_test(iterates_leave_the_box_by_its_margin),
+      cmocka_unit_test(the_margin_widens_each_range_within_physics),
       cmocka_unit_test(masked_values_give_no_gradient),
       cmocka_unit_test(minibatches_are_reproducible),
       cmocka_unit_test(minibatches_keep_the_clip_scales),
