@@ -68,8 +68,7 @@ static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double
 /* HETINV_COORDINATES_LOG: entry i in u = ln π, whose gradient is π·g and
  * whose scale is ln(hi/lo); 0 if the entry's box does not allow it. */
 static double log_scale(const hetinv_optimizer_t *opt, size_t i) {
-  double lo = opt->lo_k[i], hi = opt->hi_k[i];
-  return lo > 0.0 && hi > lo && isfinite(hi) ? log(hi / lo) : 0.0;
+  return hv_entry_log_box(opt, i) ? log(opt->hi_k[i] / opt->lo_k[i]) : 0.0;
 }
 
 static double clamp(double x, double lo, double hi) { return fmin(fmax(x, lo), hi); }
@@ -149,25 +148,18 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
   double sq = 0.0;
   size_t moved = 0;
   for (size_t i = 0; i < opt->k; ++i) {
+    /* A pair steps when its first entry comes (pair_cells pairs only free
+     * entries, and for mean-ratio steps only boxes that allow logs). */
+    if ((frozen && frozen[i]) || (paired && opt->pair_first[i] >= 0)) continue;
     int64_t j = paired ? opt->pair_second[i] : -1;
     double d = 0.0, s = logs ? log_scale(opt, i) : 0.0;
-    if (mean_ratio) {
-      /* A pair whose boxes both allow logs steps when its σa entry comes;
-       * otherwise each entry steps alone in ln π (or natively). */
-      int64_t first = opt->pair_first[i];
-      bool pair_ok = j >= 0 && s > 0.0 && log_scale(opt, (size_t)j) > 0.0;
-      if (first >= 0 && log_scale(opt, (size_t)first) > 0.0 && s > 0.0) continue;
-      if (frozen && frozen[i]) continue;
-      if (pair_ok) {
-        double dp = 0.0, dq = 0.0, sp = 0.5 * (s + log_scale(opt, (size_t)j));
-        mean_ratio_step(&m, opt, i, (size_t)j, sp, &dp, &dq);
-        sq += dp * dp + dq * dq;
-        moved += 2;
-        continue;
-      }
-      j = -1;
+    if (mean_ratio && j >= 0) {
+      double dp = 0.0, dq = 0.0, sp = 0.5 * (s + log_scale(opt, (size_t)j));
+      mean_ratio_step(&m, opt, i, (size_t)j, sp, &dp, &dq);
+      sq += dp * dp + dq * dq;
+      moved += 2;
+      continue;
     }
-    if ((frozen && frozen[i]) || (reduced && opt->pair_first[i] >= 0)) continue;
     if (j >= 0 && s > 0.0) {
       double du = 0.0, dj = 0.0;
       log_reduced_step(&m, opt, i, (size_t)j, s, &du, &dj);

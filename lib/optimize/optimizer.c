@@ -337,13 +337,15 @@ static void pair_cells(hetinv_optimizer_t *opt) {
     hetinv_param_t p = HETINV_PARAM_SIGMA_A;
     size_t cell = 0;
     hetinv_param_map_entry(st->map, i, &p, &cell);
-    if (p == first && cell < k && !(st->frozen && st->frozen[i])) by_cell[cell] = (int64_t)i;
+    bool logs = !mean_ratio || hv_entry_log_box(opt, i); /* mean-ratio steps are in logs */
+    if (p == first && cell < k && logs && !(st->frozen && st->frozen[i])) by_cell[cell] = (int64_t)i;
   }
   for (size_t j = 0; j < k; ++j) {
     hetinv_param_t p = HETINV_PARAM_SIGMA_A;
     size_t cell = 0;
     hetinv_param_map_entry(st->map, j, &p, &cell);
-    if (p == second && cell < k && by_cell[cell] >= 0 && !(st->frozen && st->frozen[j])) {
+    bool logs = !mean_ratio || hv_entry_log_box(opt, j);
+    if (p == second && cell < k && logs && by_cell[cell] >= 0 && !(st->frozen && st->frozen[j])) {
       opt->pair_second[by_cell[cell]] = (int64_t)j;
     }
   }
@@ -364,7 +366,7 @@ static void move_range(const hetinv_optimizer_t *opt, hetinv_param_t p, size_t i
   int c = (int)opt->param[HETINV_OPTIMIZER_COORDINATES];
   bool logs = (c == HETINV_COORDINATES_LOG || c == HETINV_COORDINATES_LOG_REDUCED ||
                c == HETINV_COORDINATES_LOG_MEAN_RATIO) &&
-              a > 0.0 && b > a && isfinite(b);
+              hv_entry_log_box(opt, i);
   if (logs) {
     double f = pow(b / a, m);
     *lo = a / f;

@@ -5,6 +5,7 @@
 #ifndef HV_OPTIMIZER_INTERNAL_H
 #define HV_OPTIMIZER_INTERNAL_H
 
+#include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -74,6 +75,11 @@ struct hetinv_optimizer {
 };
 
 /* optimizer.c */
+/* Entry i's box allows steps in ln π: 0 < lo < hi < ∞. */
+static inline bool hv_entry_log_box(const hetinv_optimizer_t *opt, size_t i) {
+  double lo = opt->lo_k[i], hi = opt->hi_k[i];
+  return lo > 0.0 && hi > lo && hi < HUGE_VAL;
+}
 /* "HETINV_OPTIMIZER_DECAY", ..., for messages. */
 const char *hv_optimizer_param_name(hetinv_optimizer_param_t param);
 hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt);

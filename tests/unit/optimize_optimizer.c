@@ -955,6 +955,40 @@ static void the_margin_widens_each_range_within_physics(void **state) {
   hetinv_param_map_destroy(&g_map);
 }
 
+/* Mean-ratio coordinates pair each cell's free σa and σs entries, white-
+ * box (pair_cells); a σa box starting at 0 (no logs) pairs nothing. */
+static void mean_ratio_pairs_each_cells_sigmas(void **state) {
+  const problem_t *p = *state;
+  hetinv_param_map_t *map = NULL;
+  assert_ok(hetinv_param_map_create_identity(p->initial, HETINV_FREE_ALL, &map));
+  size_t k = hetinv_param_map_size(map);
+  for (int floor_zero = 0; floor_zero < 2; ++floor_zero) {
+    hetinv_optimizer_t *opt = NULL;
+    assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+    assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_A, floor_zero ? 0.0 : 0.01, 1.0));
+    assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 1.0, 10.0));
+    assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, HETINV_COORDINATES_LOG_MEAN_RATIO));
+    hetinv_stage_t st = {sizeof st, map, 1, NULL, NULL, 0.0, 0};
+    assert_ok(hetinv_optimizer_add_stage(opt, &st));
+    assert_ok(hv_optimizer_alloc_stage_arrays(opt, k));
+    size_t pairs = 0;
+    for (size_t i = 0; i < k; ++i) {
+      hetinv_param_t pi = HETINV_PARAM_G, pj = HETINV_PARAM_G;
+      size_t ci = 0, cj = 0;
+      assert_ok(hetinv_param_map_entry(map, i, &pi, &ci));
+      int64_t j = opt->pair_second[i];
+      if (j < 0) continue;
+      assert_ok(hetinv_param_map_entry(map, (size_t)j, &pj, &cj));
+      assert_true(pi == HETINV_PARAM_SIGMA_A && pj == HETINV_PARAM_SIGMA_S && ci == cj);
+      assert_true(opt->pair_first[j] == (int64_t)i);
+      ++pairs;
+    }
+    assert_int_equal(pairs, floor_zero ? 0 : k / 3);
+    hetinv_optimizer_destroy(&opt);
+  }
+  hetinv_param_map_destroy(&map);
+}
+
 static void frozen_entries_never_move(void **state) {
   const problem_t *p = *state;
   hetinv_optimizer_t *opt = NULL;
@@ -2285,6 +2319,7 @@ int main(void) {
       cmocka_unit_test(frozen_entries_never_move),
       cmocka_unit_test(iterates_leave_the_box_by_its_margin),
       cmocka_unit_test(the_margin_widens_each_range_within_physics),
+      cmocka_unit_test(mean_ratio_pairs_each_cells_sigmas),
       cmocka_unit_test(masked_values_give_no_gradient),
       cmocka_unit_test(minibatches_are_reproducible),
       cmocka_unit_test(minibatches_keep_the_clip_scales),
