@@ -522,14 +522,17 @@ static void hand_init(hand_t *h, int method) {
   memcpy(h->hi, hi, sizeof hi);
 }
 
-/* hand_init, with entries 0 (σs) and 2 (g) one cell's pair, stepping in
- * `coordinates`. */
+/* hand_init, stepping in `coordinates`, with one cell's pair: under
+ * mean-ratio coordinates entries 0 (σa-like) and 1 (σs-like), else
+ * entries 0 (σs) and 2 (g). */
 static int64_t hand_pair_second[3] = {2, -1, -1}, hand_pair_first[3] = {-1, -1, 0};
+static int64_t mr_pair_second[3] = {1, -1, -1}, mr_pair_first[3] = {-1, 0, -1};
 static void hand_init_pair(hand_t *h, int method, int coordinates) {
   hand_init(h, method);
+  bool mr = coordinates == HETINV_COORDINATES_LOG_MEAN_RATIO;
   h->opt.param[HETINV_OPTIMIZER_COORDINATES] = coordinates;
-  h->opt.pair_second = hand_pair_second;
-  h->opt.pair_first = hand_pair_first;
+  h->opt.pair_second = mr ? mr_pair_second : hand_pair_second;
+  h->opt.pair_first = mr ? mr_pair_first : hand_pair_first;
 }
 
 static void adadelta_steps_match_hand_computation(void **state) {
@@ -700,18 +703,10 @@ static void log_coordinates_step_by_a_factor(void **state) {
  * entry 2 (g, box [-0.99, 0.99]) natively. SGD at scale s = ln 10:
  * δp = rate·s²·(π0·g0 + π1·g1), δq = rate·s²·(π0·g0 − π1·g1); then
  * π0·exp(−δp − δq), π1·exp(−δp + δq). */
-static int64_t mr_pair_second[3] = {1, -1, -1}, mr_pair_first[3] = {-1, 0, -1};
-static void hand_init_mean_ratio(hand_t *h) {
-  hand_init(h, HETINV_METHOD_SGD);
-  h->opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG_MEAN_RATIO;
-  h->opt.pair_second = mr_pair_second;
-  h->opt.pair_first = mr_pair_first;
-}
-
 static void mean_ratio_coordinates_step_the_product_and_the_ratio(void **state) {
   (void)state;
   hand_t h;
-  hand_init_mean_ratio(&h);
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_LOG_MEAN_RATIO);
   h.pi[1] = 2.0;
   h.grad[0] = 0.01, h.grad[1] = 0.03, h.grad[2] = 0.02;
   double s = log(10.0);
@@ -725,13 +720,13 @@ static void mean_ratio_coordinates_step_the_product_and_the_ratio(void **state) 
   assert_close(rms, sqrt(((dp / s) * (dp / s) + (dq / s) * (dq / s) + d2 * d2) / 3), 1e-14);
   /* A gradient that only trades one for the other (π0·g0 = −π1·g1) moves
    * the ratio alone: the product is unchanged. */
-  hand_init_mean_ratio(&h);
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_LOG_MEAN_RATIO);
   h.grad[0] = 0.01, h.grad[1] = -0.01;
   hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[0] * h.pi[1], 25.0, 1e-13);
   assert_true(h.pi[0] < 5.0 && h.pi[1] > 5.0);
   /* Frozen σa: σs steps alone in ln π. */
-  hand_init_mean_ratio(&h);
+  hand_init_pair(&h, HETINV_METHOD_SGD, HETINV_COORDINATES_LOG_MEAN_RATIO);
   int64_t none[3] = {-1, -1, -1};
   h.opt.pair_second = none;
   h.opt.pair_first = none;
