@@ -8,6 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
+ *               [--coarse-fraction F]
  *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]
@@ -106,7 +107,9 @@
  * (acquisition.weighting "residual"), so that Huber's clip counts in
  * standard errors of the residual, not of the data alone;
  * --decay D its running means'
- * decay (default 0.95). --coordinates reduced moves each voxel's σs and g
+ * decay (default 0.95). --coarse-fraction F gives each coarser level
+ * F × the finest level's iterations (optimizer.coarse_fraction; default
+ * 0.15). --coordinates reduced moves each voxel's σs and g
  * as (σs(1 − g), g), --coordinates log (the default, the built-in
  * scene's) each value with a positive box in ln π, --coordinates
  * log-reduced both: σs and g as (ln σs(1 − g), g), the rest in ln π,

@@ -12,6 +12,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
+          "                   [--coarse-fraction F]\n"
           "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]\n"
           "                   [--independent-errors] [--pooled-errors]\n"
           "                   [--expected-camera-errors] [--residual-weights]\n"
@@ -32,7 +33,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .volumes = -1, .iterations = -1, .photons = -1, .minibatch = -1, .grid = -1, .threads = -1,
       .truth_photons = -1, .coarse_window = -1,
       .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4,
-      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .epsilon_start = -1.0,
+      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .epsilon_start = -1.0,
       .loss_clip = -1.0, .loss_clip_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
       .coordinates = -1,
   };
@@ -142,6 +143,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
     } else if (strcmp(a, "--box-margin") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1.0, &o->box_margin) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--coarse-fraction") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-6, 1.0, &o->coarse_fraction) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--decay") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &o->decay) < 0) return 2;
       ++i;
@@ -186,6 +190,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
 void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->coordinates >= 0) sc->coordinates = o->coordinates;
   if (o->decay >= 0.0) sc->decay = o->decay;
+  if (o->coarse_fraction > 0.0) sc->coarse_fraction = o->coarse_fraction;
   if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
   if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;
   if (o->loss_clip >= 0.0) sc->loss_clip = o->loss_clip;
