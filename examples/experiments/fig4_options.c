@@ -12,7 +12,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-fraction F]\n"
+          "                   [--coarse-fraction F] [--stage-results]\n"
           "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]\n"
           "                   [--independent-errors] [--pooled-errors]\n"
           "                   [--expected-camera-errors] [--residual-weights]\n"
@@ -143,6 +143,8 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
     } else if (strcmp(a, "--box-margin") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1.0, &o->box_margin) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--stage-results") == 0) {
+      o->stage_results = true;
     } else if (strcmp(a, "--coarse-fraction") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-6, 1.0, &o->coarse_fraction) < 0) return 2;
       ++i;
@@ -191,6 +193,7 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->coordinates >= 0) sc->coordinates = o->coordinates;
   if (o->decay >= 0.0) sc->decay = o->decay;
   if (o->coarse_fraction > 0.0) sc->coarse_fraction = o->coarse_fraction;
+  if (o->stage_results) sc->stage_results = true;
   if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
   if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;
   if (o->loss_clip >= 0.0) sc->loss_clip = o->loss_clip;

@@ -11,7 +11,7 @@
 /* -1 (or NULL) where the option was not given: the scene's default. */
 typedef struct fig4_options {
   bool full, quiet, write_scenes, configs[5]; /* configs[1..4] */
-  bool bound, bound_only, init_truth, init_geometric, fit;
+  bool bound, bound_only, init_truth, init_geometric, fit, stage_results;
   bool independent_errors, pooled_errors, expected_camera_errors, residual_weights;
   const char *bound_from, *out;
   int64_t first_volume, volumes; /* volumes first_volume + 1 .. first_volume + volumes */

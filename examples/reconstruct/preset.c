@@ -173,6 +173,7 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
     fprintf(f, ", \"box_margin\": ");
     put_number(f, sc->box_margin);
   }
+  if (sc->stage_results) fprintf(f, ", \"stage_results\": true");
   fprintf(f, ",\n");
   fprintf(f, "                \"bounds\": {");
   for (int p = 0; p < 3; ++p) {

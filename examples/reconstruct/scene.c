@@ -355,7 +355,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (got <= 0) return got;
   static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
                                         "epsilon_start", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
-                                        "init", "levels", "layerwise_layers", NULL};
+                                        "init", "levels", "layerwise_layers", "stage_results", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "coordinates", JR_OPTIONAL, recon_coordinate_names, &sc->coordinates) < 0) return -1;
@@ -391,6 +391,9 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
     return jr_fail(jr, "optimizer.box_margin", "is %g; expected a number from 0 (iterates in the bounds) to 1",
                    sc->box_margin);
   }
+  const cJSON *stage_results = jr_get(o, "stage_results");
+  if (stage_results && !cJSON_IsBool(stage_results)) return jr_fail(jr, "optimizer.stage_results", "expected true or false");
+  sc->stage_results = stage_results && cJSON_IsTrue(stage_results);
   if (read_triplet_object(jr, o, "optimizer", "bounds", sc->bounds_lo, sc->bounds_hi) < 0) return -1;
   for (int p = 0; p < 3; ++p) sc->init[p] = 0.5 * (sc->bounds_lo[p] + sc->bounds_hi[p]);
   /* "truth": start at the truth, a diagnostic (docs/reconstruct-format.md). */

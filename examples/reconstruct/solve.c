@@ -15,6 +15,12 @@ typedef struct progress_line {
   bool quiet, tty;
   int64_t last_printed;
   double elapsed; /* optimisation seconds so far, across resumes */
+  /* Stage results (recon_scene_t.stage_results): the optimizer, the
+   * output directory, and the first failure's message (the run stops). */
+  const hetinv_optimizer_t *opt;
+  hetinv_context_t *ctx;
+  const char *stage_dir;
+  char failure[1200];
 } progress_line_t;
 
 static void format_duration(double s, char *out, size_t n) {
@@ -27,9 +33,33 @@ static void format_duration(double s, char *out, size_t n) {
   }
 }
 
+/* Writes the hand-on of a stage that has just done its last iteration (the
+ * average the next stage starts from: hetinv_optimizer_result() before
+ * the stage ends) as <dir>/stage<n>_<param>.vol, n from 1. A stage that
+ * ends early on a plateau is not written. */
+static int write_stage_result(progress_line_t *pl, const hetinv_progress_t *p) {
+  if (pl->stage_dir == NULL || p->stage + 1 >= p->stage_count || p->stage_iteration != p->stage_iterations ||
+      hetinv_context_rank(pl->ctx) != 0) {
+    return 0;
+  }
+  hetinv_medium_t *m = NULL;
+  hetinv_result_t r = hetinv_optimizer_result(pl->opt, &m);
+  char path[1200] = "";
+  for (int q = 0; r == HETINV_SUCCESS && q < 3; ++q) {
+    snprintf(path, sizeof path, "%s/stage%d_%s.vol", pl->stage_dir, (int)p->stage + 1, hetinv_param_name(q));
+    r = hetinv_medium_write_vol(m, q, path);
+  }
+  hetinv_medium_destroy(&m);
+  if (r == HETINV_SUCCESS) return 0;
+  snprintf(pl->failure, sizeof pl->failure, "stage %d's result %s: %s", (int)p->stage + 1, path,
+           hetinv_context_last_error_message(pl->ctx));
+  return 1;
+}
+
 static int on_progress(const hetinv_progress_t *p, void *user) {
   progress_line_t *pl = user;
   pl->elapsed = p->elapsed;
+  if (write_stage_result(pl, p) != 0) return 1;
   if (pl->quiet) return 0;
   /* The ETA assumes the remaining iterations cost what the past ones did
    * on average (finer stages cost the same: the photon count is fixed). */
@@ -189,7 +219,8 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
                             finest ? 0 : sc->coarse_average_window};
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_stage(opt, &stage);
   }
-  progress_line_t pl = {.quiet = quiet, .tty = isatty(2) != 0};
+  progress_line_t pl = {.quiet = quiet, .tty = isatty(2) != 0, .opt = opt, .ctx = ctx,
+                        .stage_dir = sc->stage_results ? sc->output : NULL};
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_progress(opt, on_progress, &pl);
   char checkpoint[1100];
   snprintf(checkpoint, sizeof checkpoint, "%s/checkpoint.bin", sc->output);
@@ -206,9 +237,15 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_gain_mode(est, sc->gain_mode);
   hetinv_stop_reason_t why = HETINV_STOP_NONE;
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_run(opt, est, &why);
+  bool stage_failed = r == HETINV_SUCCESS && pl.failure[0] != '\0';
+  if (stage_failed) r = HETINV_ERROR_IO;
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_result(opt, out);
   if (seconds) *seconds = pl.elapsed;
-  if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "reconstruction: %s", hetinv_context_last_error_message(ctx));
+  if (stage_failed) {
+    snprintf(msg, msg_size, "%s", pl.failure);
+  } else if (r != HETINV_SUCCESS) {
+    snprintf(msg, msg_size, "reconstruction: %s", hetinv_context_last_error_message(ctx));
+  }
   double *gains = NULL;
   size_t gain_count = 0;
   if (r == HETINV_SUCCESS && sc->gain_mode != HETINV_GAIN_NONE) {
