@@ -37,6 +37,10 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->init_at_truth) {
     key_append(key, key_size, " init=truth levels=%d", (int)sc->levels[sc->level_count - 1]);
   }
+  if (sc->levels_keyed) {
+    key_append(key, key_size, " levels=");
+    for (int32_t l = 0; l < sc->level_count; ++l) key_append(key, key_size, "%s%d", l ? "," : "", (int)sc->levels[l]);
+  }
   if (sc->init_keyed) key_append(key, key_size, " init=%.17g:%.17g:%.17g", sc->init[0], sc->init[1], sc->init[2]);
   /* Against the values of the key's first version, not today's defaults:
    * a default that changes must change the key of the cells it computes. */

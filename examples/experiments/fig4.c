@@ -8,7 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
- *               [--coarse-fraction F] [--stage-results]
+ *               [--coarse-fraction F] [--coarse-levels none|A,B,...] [--stage-results]
  *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]
@@ -109,7 +109,9 @@
  * --decay D its running means'
  * decay (default 0.95). --coarse-fraction F gives each coarser level
  * F × the finest level's iterations (optimizer.coarse_fraction; default
- * 0.15). --stage-results writes each coarser stage's hand-on, the
+ * 0.15). --coarse-levels A,B,... replaces the coarser levels' cells per axis
+ * (--full: 3,6,12 before the finest 25; none: the finest level alone),
+ * keyed in the cell. --stage-results writes each coarser stage's hand-on, the
  * average the next stage starts from, as stage<n>_<param>.vol in the
  * cell's folder (optimizer.stage_results; not part of the cell's key:
  * it changes no result), so a miss can be traced to the stage that made it. --coordinates reduced moves each voxel's σs and g

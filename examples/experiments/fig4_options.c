@@ -12,7 +12,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-fraction F] [--stage-results]\n"
+          "                   [--coarse-fraction F] [--coarse-levels none|A,B,...] [--stage-results]\n"
           "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]\n"
           "                   [--independent-errors] [--pooled-errors]\n"
           "                   [--expected-camera-errors] [--residual-weights]\n"
@@ -26,6 +26,33 @@ static int usage(const char *what) {
   return 2;
 }
 
+/* --coarse-levels: "none", or cells per axis of each coarser stage,
+ * increasing, comma-separated (at most RECON_MAX_LEVELS - 1 of them). */
+static int parse_levels(const char *opt, const char *text, fig4_options_t *o) {
+  if (text == NULL) {
+    fprintf(stderr, "hetinv-fig4: %s needs a value\n", opt);
+    return -1;
+  }
+  o->coarse_level_count = 0;
+  if (strcmp(text, "none") == 0) return 0;
+  const char *p = text;
+  for (;;) {
+    char *end = NULL;
+    long v = strtol(p, &end, 10);
+    int n = o->coarse_level_count;
+    if (end == p || v < 1 || v > 4096 || (n > 0 && v <= o->coarse_levels[n - 1]) || n == RECON_MAX_LEVELS - 1 ||
+        (*end != ',' && *end != '\0')) {
+      fprintf(stderr,
+              "hetinv-fig4: %s: '%s' is not \"none\" or at most %d increasing cell counts from 1 to 4096, "
+              "comma-separated\n", opt, text, RECON_MAX_LEVELS - 1);
+      return -1;
+    }
+    o->coarse_levels[o->coarse_level_count++] = (int32_t)v;
+    if (*end == '\0') return 0;
+    p = end + 1;
+  }
+}
+
 int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
   *o = (fig4_options_t){
       .configs = {false, true, true, true, true},
@@ -33,7 +60,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .volumes = -1, .iterations = -1, .photons = -1, .minibatch = -1, .grid = -1, .threads = -1,
       .truth_photons = -1, .coarse_window = -1,
       .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4,
-      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .epsilon_start = -1.0,
+      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0,
       .loss_clip = -1.0, .loss_clip_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
       .coordinates = -1,
   };
@@ -143,6 +170,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
     } else if (strcmp(a, "--box-margin") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1.0, &o->box_margin) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--coarse-levels") == 0) {
+      if (parse_levels(a, next, o) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--stage-results") == 0) {
       o->stage_results = true;
     } else if (strcmp(a, "--coarse-fraction") == 0) {
@@ -193,6 +223,15 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->coordinates >= 0) sc->coordinates = o->coordinates;
   if (o->decay >= 0.0) sc->decay = o->decay;
   if (o->coarse_fraction > 0.0) sc->coarse_fraction = o->coarse_fraction;
+  if (o->coarse_level_count >= 0 && !sc->init_at_truth) { /* from the truth: the finest level alone already */
+    int32_t finest = sc->levels[sc->level_count - 1], n = 0;
+    for (int32_t l = 0; l < o->coarse_level_count; ++l) {
+      if (o->coarse_levels[l] < finest) sc->levels[n++] = o->coarse_levels[l];
+    }
+    sc->levels[n++] = finest;
+    sc->level_count = n;
+    sc->levels_keyed = true;
+  }
   if (o->stage_results) sc->stage_results = true;
   if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
   if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;

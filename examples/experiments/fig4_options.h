@@ -19,6 +19,9 @@ typedef struct fig4_options {
   int64_t bound_photons, bound_replicates, fit_photons, fit_replicates;
   double scale, epsilon, min_snr, decay, coarse_fraction, epsilon_start, loss_clip, smoothness, multiscale, box_margin;
   int coordinates, loss_clip_errors;
+  /* --coarse-levels: the coarser stages' cells per axis, increasing; -1:
+   * the scene's schedule, 0: none (the finest level alone). */
+  int32_t coarse_level_count, coarse_levels[RECON_MAX_LEVELS - 1];
 } fig4_options_t;
 
 /* Reads argv into *o: 0 to run, 1 if it printed the help, 2 after printing

@@ -157,6 +157,7 @@ typedef struct recon_scene {
   int32_t level_count;          /* multi-resolution: cells per axis of each stage */
   int32_t levels[RECON_MAX_LEVELS];
   int32_t layerwise_layers;     /* > 0: layer-wise stages first (Fig. 2b) */
+  bool levels_keyed;            /* levels differ from the experiment's schedule: cells key them */
   bool stage_results;           /* write each stage but the last's hand-on: <output>/stage<n>_<param>.vol */
   /* Run. */
   uint64_t seed;
