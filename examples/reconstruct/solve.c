@@ -20,7 +20,7 @@ typedef struct progress_line {
   const hetinv_optimizer_t *opt;
   hetinv_context_t *ctx;
   const char *stage_dir;
-  char failure[1200];
+  char failure[2560];
 } progress_line_t;
 
 static void format_duration(double s, char *out, size_t n) {
@@ -51,7 +51,7 @@ static int write_stage_result(progress_line_t *pl, const hetinv_progress_t *p) {
   }
   hetinv_medium_destroy(&m);
   if (r == HETINV_SUCCESS) return 0;
-  snprintf(pl->failure, sizeof pl->failure, "stage %d's result %s: %s", (int)p->stage + 1, path,
+  snprintf(pl->failure, sizeof pl->failure, "stage %d's result %.1100s: %.1200s", (int)p->stage + 1, path,
            hetinv_context_last_error_message(pl->ctx));
   return 1;
 }
