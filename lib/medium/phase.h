@@ -12,6 +12,8 @@
 #include <assert.h>
 #include <math.h>
 
+#include "core/bits.h"
+
 typedef enum hv_phase_family {
   HV_PHASE_HG, /* Henyey–Greenstein, g = mean cosine, -1 < g < 1 */
 } hv_phase_family_t;
@@ -93,10 +95,11 @@ static inline void hv_sincos_2pi(double u, double *s, double *c) {
   double cp = 1.0 + f2 * (-0.5 + f2 * (1.0 / 24 + f2 * (-1.0 / 720 + f2 * (1.0 / 40320 +
               f2 * (-1.0 / 3628800 + f2 * (1.0 / 479001600 + f2 * (-1.0 / 87178291200 +
               f2 * (1.0 / 20922789888000))))))));
-  iq &= 3;
-  double ss = (iq & 1) ? cp : sp, cc = (iq & 1) ? sp : cp;
-  *s = (iq & 2) ? -ss : ss;
-  *c = (iq == 1 || iq == 2) ? -cc : cc;
+  /* The quadrant is a coin flip per scattering: selects by masks, not
+   * branches (as branches they were 80 % of A1's mispredictions). */
+  uint32_t q = (uint32_t)iq & 3u, odd = q & 1u;
+  *s = hv_negate_if(hv_select(sp, cp, odd), q >> 1);
+  *c = hv_negate_if(hv_select(cp, sp, odd), (q ^ (q >> 1)) & 1u);
 }
 
 /* The unit direction at angle θ from unit w (cosθ given) and azimuth

@@ -7,6 +7,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/bits.h"
 #include "core/compiler.h"
 #include "core/error.h"
 #include "medium/fresnel.h"
@@ -55,6 +56,14 @@ typedef struct ortho {
    * pixel, one outside the second on none, whatever the division in
    * hv_sensor_pixel_at rounds to (covers()). */
   double inside[2], outside[2];
+  /* The chains' starting patterns: sign flips of dir_in (bit a flips axis
+   * a), in increasing order, without those that repeat another's direction
+   * (a flip of a zero component). A camera along a face normal has two of
+   * eight; testing all eight at every vertex was a third of a
+   * reconstruction iteration's mispredicted branches. */
+  int32_t pattern_count;
+  uint8_t pattern[8];
+  double pattern_dir[8][3];
 } ortho_t;
 
 /* hv_sensor_pixel_at(s, p) >= 0, exactly, without its two divisions
@@ -104,17 +113,12 @@ static void at_vertex(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sen
   hv_grad_tally_t *gt = tally->grad;
   hv_path_log_t *chain = gt ? &gt->chain : NULL;
   bool matched = grid->eta == grid->eta_out; /* no reflections: the direct chain only */
-  for (int flips = 0; flips < 8; ++flips) {
-    if (matched && flips != 0) break;
-    double w0[3], least = 1.0; /* the reflections the pattern cannot avoid */
-    bool redundant = false;
-    for (int a = 0; a < 3; ++a) {
-      bool flip = (flips >> a) & 1;
-      if (flip && o->dir_in[a] == 0.0) redundant = true; /* same direction as another pattern */
-      if (flip) least *= reflectance[a];
-      w0[a] = flip ? -o->dir_in[a] : o->dir_in[a];
-    }
-    if (redundant) continue;
+  int32_t patterns = matched ? 1 : o->pattern_count; /* pattern 0 is no flip */
+  for (int32_t p = 0; p < patterns; ++p) {
+    int flips = o->pattern[p];
+    const double *w0 = o->pattern_dir[p];
+    double least = 1.0; /* the reflections the pattern cannot avoid */
+    for (int a = 0; a < 3; ++a) least *= hv_select(1.0, reflectance[a], (uint32_t)(flips >> a) & 1u);
     /* Survives with probability least / ROULETTE; drawn before the phase
      * function, whose division and square root most such patterns then
      * never pay. */
@@ -223,6 +227,15 @@ static hetinv_result_t set_direction(hetinv_sensor_t *s, ortho_t *o, const doubl
                    d[2], s->geo.eta, s->geo.eta_out);
   }
   for (int a = 0; a < 3; ++a) o->dir_in[a] = -back_in[a];
+  o->pattern_count = 0;
+  for (int flips = 0; flips < 8; ++flips) {
+    bool redundant = false;
+    for (int a = 0; a < 3; ++a) redundant |= ((flips >> a) & 1) && o->dir_in[a] == 0.0;
+    if (redundant) continue;
+    int32_t p = o->pattern_count++;
+    o->pattern[p] = (uint8_t)flips;
+    for (int a = 0; a < 3; ++a) o->pattern_dir[p][a] = ((flips >> a) & 1) ? -o->dir_in[a] : o->dir_in[a];
+  }
   int face_axis = hv_face_axis(s->face);
   o->normal = o->dir_in[(face_axis + 1) % 3] == 0.0 && o->dir_in[(face_axis + 2) % 3] == 0.0;
   double cos_in = fabs(o->dir_in[face_axis]), cos_t;

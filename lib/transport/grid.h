@@ -105,7 +105,7 @@ static inline void hv_ray_locate(const hv_grid_t *g, hv_ray_t *r) {
     double f = (r->p[a] - g->lo[a]) * g->inv_h[a];
     double fl = floor(f);
     int32_t i = (int32_t)fl;
-    if (r->d[a] < 0.0 && f == fl) --i;
+    i -= (r->d[a] < 0.0) & (f == fl); /* on a face, moving down: the voxel below; no branch on the sign */
     i = i < 0 ? 0 : (i >= g->n[a] ? g->n[a] - 1 : i);
     r->v[a] = i;
     r->k += (int64_t)i * g->stride[a];

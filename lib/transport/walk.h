@@ -16,6 +16,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "core/bits.h"
 #include "core/compiler.h"
 #include "transport/grid.h"
 #include "transport/path_log.h"
@@ -90,15 +91,6 @@ HV_ALWAYS_INLINE static inline double hv_walk_next(hv_walk_t *w) {
 /* The axis hv_walk_next picked. */
 static inline int hv_walk_axis(const hv_walk_t *w) { return w->sel2 ? 2 : w->sel1; }
 
-/* x if keep is 1, +0 if it is 0, by its bits. */
-static inline double hv_walk_keep(double x, int32_t keep) {
-  uint64_t u;
-  memcpy(&u, &x, sizeof u);
-  u &= -(uint64_t)keep;
-  memcpy(&x, &u, sizeof x);
-  return x;
-}
-
 /* Crosses the face hv_walk_next picked: 1 and the next voxel, or 0 (state
  * unchanged) if that face is the box's. */
 HV_ALWAYS_INLINE static inline int hv_walk_cross(hv_walk_t *w) {
@@ -111,9 +103,9 @@ HV_ALWAYS_INLINE static inline int hv_walk_cross(hv_walk_t *w) {
   /* t_next[a] += t_delta[a]; the other axes add +0, which changes no
    * distance (all are >= 0 or inf). Masks, not selects: a compiler turns a
    * select of three into branches on the axis. */
-  w->t0 += hv_walk_keep(w->dt0, w->sel0);
-  w->t1 += hv_walk_keep(w->dt1, w->sel1);
-  w->t2 += hv_walk_keep(w->dt2, w->sel2);
+  w->t0 += hv_keep_if(w->dt0, (uint32_t)w->sel0);
+  w->t1 += hv_keep_if(w->dt1, (uint32_t)w->sel1);
+  w->t2 += hv_keep_if(w->dt2, (uint32_t)w->sel2);
   return 1;
 }
 

@@ -320,6 +320,33 @@ static void hg_sampling_passes_chi2_goodness_of_fit(void **state) {
   assert_true(ok);
 }
 
+/* hv_sincos_2pi against libm on every quadrant and its edges: the masks
+ * that pick and negate the polynomials (core/bits.h) must give exactly
+ * the branches' values, so each sign and each swap is checked. */
+static void sincos_2pi_matches_libm_in_every_quadrant(void **state) {
+  (void)state;
+  double worst = 0.0;
+  for (int i = 0; i <= 4096; ++i) {
+    /* A grid with the quadrant edges and their neighbours, and the top of [0, 1). */
+    double u = i < 4096 ? i / 4096.0 : 1.0 - 0x1p-32;
+    for (int side = -1; side <= 1; ++side) {
+      double v = side == 0 ? u : nextafter(u, side < 0 ? 0.0 : 1.0);
+      if (!(v >= 0.0 && v < 1.0)) continue;
+      double s, c;
+      hv_sincos_2pi(v, &s, &c);
+      double x = 2.0 * PI * v;
+      double es = fabs(s - sin(x)), ec = fabs(c - cos(x));
+      worst = fmax(worst, fmax(es, ec));
+      /* Signs exactly, where the reference is not within rounding of 0. */
+      if (fabs(sin(x)) > 1e-9) assert_true(signbit(s) == signbit(sin(x)));
+      if (fabs(cos(x)) > 1e-9) assert_true(signbit(c) == signbit(cos(x)));
+    }
+  }
+  print_message("largest |error| of sin, cos: %.3g\n", worst);
+  /* 2π·u itself is rounded in the reference: a few ulps of 2π. */
+  assert_true(worst < 4e-15);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(hg_integrates_to_one_over_the_sphere),
@@ -331,6 +358,7 @@ int main(void) {
       cmocka_unit_test(onb_is_orthonormal_and_right_handed_for_any_direction),
       cmocka_unit_test(incomplete_gamma_matches_closed_forms),
       cmocka_unit_test(hg_sampling_passes_chi2_goodness_of_fit),
+      cmocka_unit_test(sincos_2pi_matches_libm_in_every_quadrant),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
