@@ -4,7 +4,10 @@
  * map, 3 × 10⁶ unknowns) and the cotangent 1 on Rd.
  *
  *   a1 threads=T photons=N forward_s=F gradient_s=G forward_paths_per_s=...
- *      gradient_paths_per_s=... ratio_gradient_over_forward=G/F
+ *      gradient_paths_per_s=... ratio_gradient_over_forward=G/F Rd=... gradient_fnv=H
+ *
+ * H hashes the gradient's bits (FNV-1a over its doubles), so that a change
+ * meant to leave the gradient unchanged is checked in the same command.
  *
  * Both passes run in the same process, alternately (--repeat R keeps the
  * fastest of each), so the ratio is robust to a shared machine. Target: the
@@ -16,6 +19,14 @@
 #include <string.h>
 
 #include "a1_scene.h"
+
+/* FNV-1a over the bytes of n doubles. */
+static unsigned long long fnv1a(const double *x, size_t n) {
+  unsigned long long h = 0xcbf29ce484222325ULL;
+  const unsigned char *b = (const unsigned char *)x;
+  for (size_t i = 0; i < n * sizeof *x; ++i) h = (h ^ b[i]) * 0x100000001b3ULL;
+  return h;
+}
 
 static bool bench(case_id_t c, int32_t threads, double photons, int repeat) {
   scene_t s;
@@ -39,9 +50,9 @@ static bool bench(case_id_t c, int32_t threads, double photons, int repeat) {
   }
   if (ok) {
     printf("%s threads=%d photons=%.0f forward_s=%.3f gradient_s=%.3f forward_paths_per_s=%.0f "
-           "gradient_paths_per_s=%.0f ratio_gradient_over_forward=%.2f Rd=%.4f\n",
+           "gradient_paths_per_s=%.0f ratio_gradient_over_forward=%.2f Rd=%.4f gradient_fnv=%016llx\n",
            cases[c].name, (int)threads, photons, best_f, best_g, photons / best_f,
-           photons / best_g, best_g / best_f, rd);
+           photons / best_g, best_g / best_f, rd, fnv1a(grad, k));
     fflush(stdout);
   }
   free(grad);
