@@ -169,10 +169,9 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
     fprintf(f, ", \"multiscale\": ");
     put_number(f, sc->multiscale);
   }
-  if (sc->box_margin > 0.0) {
-    fprintf(f, ", \"box_margin\": ");
-    put_number(f, sc->box_margin);
-  }
+  /* Always written: the reader's default (0.1) is not the library's 0. */
+  fprintf(f, ", \"box_margin\": ");
+  put_number(f, sc->box_margin);
   if (sc->stage_results) fprintf(f, ", \"stage_results\": true");
   fprintf(f, ",\n");
   fprintf(f, "                \"bounds\": {");
