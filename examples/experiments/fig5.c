@@ -9,7 +9,7 @@
  *   hetinv-fig5 [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]
  *               [--threads N] [--min-snr S] [--lighting probes|cameras]
  *               [--loss-clip C] [--coarse-window N]
- *               [--source-stride N] [--smoothness L] [--multiscale A]
+ *               [--source-stride N] [--smoothness L] [--multiscale A] [--box-margin M]
  *               [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-spacing S] [--recovered DIR]
  *               [--quiet] [--write-scene]
@@ -76,7 +76,7 @@ static void print_usage(FILE *f) {
           "usage: " PROG " [--full] [--grid N] [-o DIR] [--iterations N] [--photons N]\n"
           "                   [--threads N] [--min-snr S] [--lighting probes|cameras]\n"
           "                   [--loss-clip C] [--coarse-window N]\n"
-          "                   [--source-stride N] [--smoothness L] [--multiscale A]\n"
+          "                   [--source-stride N] [--smoothness L] [--multiscale A] [--box-margin M]\n"
           "                   [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-spacing S] [--recovered DIR]\n"
           "                   [--quiet] [--write-scene]\n"
@@ -105,6 +105,8 @@ static void print_usage(FILE *f) {
           "  --multiscale A  add A times each parameter's mean gradient over its blocks\n"
           "                  of 2, 4, 8, ... cells (optimizer.multiscale; default 1 with\n"
           "                  --full, else 0: none)\n"
+          "  --box-margin M  the iterates may leave each box by M of its width; only\n"
+          "                  their average is held in it (optimizer.box_margin; default 0)\n"
           "  --coordinates C the optimizer's steps (optimizer.coordinates; default log-reduced:\n"
           "                  sigma_a and sigma_s(1 - g) in ln, by factors, and g; native: the paper's)\n"
           "  --bound         after the recovery, the local Cramer-Rao bound at the truth\n"
@@ -495,7 +497,7 @@ int main(int argc, char **argv) {
   int rec_count = 0;
   int64_t bound_photons = -1, bound_replicates = 4, bound_spacing = 3;
   int64_t grid = -1, iterations = -1, photons = -1, threads = -1;
-  double min_snr = -1.0, loss_clip = -1.0, smoothness = -1.0, multiscale = -1.0;
+  double min_snr = -1.0, loss_clip = -1.0, smoothness = -1.0, multiscale = -1.0, box_margin = -1.0;
   int coordinates = -1;
   int64_t coarse_window = -1, source_stride = -1, truth_seed = -1;
   for (int i = 1; i < argc; ++i) {
@@ -551,6 +553,9 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--multiscale") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 100.0, &multiscale) < 0) return 2;
+    } else if (strcmp(a, "--box-margin") == 0) {
+      ++i;
+      if (recon_parse_real(PROG, a, v, 0.0, 1.0, &box_margin) < 0) return 2;
     } else if (strcmp(a, "--coordinates") == 0) {
       ++i;
       if (recon_parse_choice(PROG, a, v, recon_coordinate_names, &coordinates) < 0) return 2;
@@ -590,6 +595,7 @@ int main(int argc, char **argv) {
   if (loss_clip >= 0.0) sc.loss_clip = loss_clip;
   if (smoothness >= 0.0) sc.smoothness = smoothness;
   if (multiscale >= 0.0) sc.multiscale = multiscale;
+  if (box_margin >= 0.0) sc.box_margin = box_margin;
   if (coordinates >= 0) sc.coordinates = coordinates;
   if (truth_seed >= 0) sc.truth_seed = (uint64_t)truth_seed;
   if (coarse_window > 0) sc.coarse_average_window = (int32_t)coarse_window;
