@@ -77,9 +77,10 @@ void recon_scene_default(recon_scene_t *sc) {
    * other hold a truth near a bound high. Chosen at full size (Fig. 4's
    * (2)), then run on this scene's 11 volumes: 40 of 60 figures of seeds
    * 2-11 lower, 10 higher, σa's mean lower or equal on all 11
-   * (docs/results/seeds.md). hetinv-fig4 --full keeps 0: there it lowered
-   * too few figures of unseen volumes. hetinv-fig5 keeps 0, the setting
-   * its tables were measured at. */
+   * (docs/results/seeds.md). hetinv-fig4 keeps 0: on its volumes, full
+   * size and reduced, it lowered too few figures. hetinv-fig5 keeps 0,
+   * the setting its tables were measured at (no iterate there reaches a
+   * bound). */
   sc->box_margin = 0.1;
   sc->iterations = 600;
   sc->coarse_fraction = 0.15;
