@@ -184,6 +184,12 @@ static hetinv_result_t local_bounds(hetinv_estimator_t *est, const hetinv_medium
     }
     if (r != HETINV_SUCCESS) break;
     local_summary(b, radius, rel, voxels);
+    for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
+      b->local_at[radius][p] = malloc(voxels * sizeof(double));
+      if (b->local_at[radius][p] == NULL) r = HETINV_ERROR_OUT_OF_MEMORY;
+      else memcpy(b->local_at[radius][p], rel[p], voxels * sizeof(double));
+    }
+    if (r != HETINV_SUCCESS) break;
     b->local_radii = radius + 1;
     bool as_determined = true;
     for (int p = 0; p < 3; ++p) as_determined = as_determined && b->local_undefined[radius][p] <= b->local_undefined[0][p];
@@ -331,6 +337,10 @@ void recon_bound_release(recon_bound_t *b) {
     free(b->lower[p]);
     free(b->local[p]);
     b->rel[p] = b->rel_se[p] = b->lower[p] = b->local[p] = NULL;
+    for (int32_t radius = 0; radius < RECON_LOCAL_RADII; ++radius) {
+      free(b->local_at[radius][p]);
+      b->local_at[radius][p] = NULL;
+    }
   }
   b->done = false;
 }
@@ -384,19 +394,25 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
   char path[1200];
   hetinv_image_t *img = NULL;
   const int kinds_n = b->local_radii > 0 ? 4 : 3;
-  hetinv_result_t r = hetinv_image_create(ctx, d[0], d[2], 3 * kinds_n, &img);
+  const int radii_n = b->local_at[0][0] != NULL ? (int)b->local_radii : 0; /* only from the dense F̂ */
+  hetinv_result_t r = hetinv_image_create(ctx, d[0], d[2], 3 * (kinds_n + radii_n), &img);
   static const char *const kinds[4] = {"bound", "bound_std_error", "bound_lower", "bound_local"};
   for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
     const double *src[4] = {b->rel[p], b->rel_se[p], b->lower[p], b->local[p]};
-    for (int which = 0; r == HETINV_SUCCESS && which < kinds_n; ++which) {
+    for (int which = 0; r == HETINV_SUCCESS && which < kinds_n + radii_n; ++which) {
       char name[64];
-      snprintf(name, sizeof name, "%s_%s", kinds[which], hetinv_param_name(p));
-      int32_t c = kinds_n * p + which;
+      if (which < kinds_n) {
+        snprintf(name, sizeof name, "%s_%s", kinds[which], hetinv_param_name(p));
+      } else {
+        snprintf(name, sizeof name, "bound_local_r%d_%s", which - kinds_n, hetinv_param_name(p));
+      }
+      const double *a = which < kinds_n ? src[which] : b->local_at[which - kinds_n][p];
+      int32_t c = (kinds_n + radii_n) * p + which;
       r = hetinv_image_set_channel_name(img, c, name);
       float *px = hetinv_image_channel_data(img, c);
       for (int32_t z = 0; z < d[2]; ++z) {
         for (int32_t x = 0; x < d[0]; ++x) {
-          px[(size_t)z * (size_t)d[0] + (size_t)x] = (float)section(src[which], d, x, z);
+          px[(size_t)z * (size_t)d[0] + (size_t)x] = (float)section(a, d, x, z);
         }
       }
     }
@@ -406,7 +422,8 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
                                           "Cramer-Rao bound: relative standard deviation sd/value at the "
                                           "truth, its jackknife error, the lower bound sqrt(1/F_kk)/value and, "
                                           "where F is not positive definite, the local bound of the largest "
-                                          "radius that determines as many voxels as radius 0; x-z section at "
+                                          "radius that determines as many voxels as radius 0, and the local "
+                                          "bound at each radius computed (bound_local_r<N>); x-z section at "
                                           "the middle of y; row = z");
   }
   snprintf(path, sizeof path, "%s/bound.exr", sc->output);

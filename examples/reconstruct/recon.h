@@ -378,6 +378,10 @@ typedef struct recon_bound {
   int32_t local_radii;
   int32_t local_best; /* the largest radius with no more undetermined voxels than radius 0 */
   double *local[3];   /* per voxel at local_best */
+  /* per voxel at each radius 0 .. local_radii − 1 (NaN where that radius's
+   * window is not positive definite), for a voxel-by-voxel look at where
+   * the windows stop being determined; only from the dense F̂ */
+  double *local_at[RECON_LOCAL_RADII][3];
   /* > 0: the map was past HETINV_FISHER_MAX_ENTRIES, and local (radius 0)
    * comes from F's blocks (hetinv_estimator_fisher_blocks) at this spacing;
    * rel is NaN. */
@@ -393,7 +397,8 @@ void recon_bound_release(recon_bound_t *b);
 /* The summary table (mean, median, max per parameter). */
 void recon_bound_print(const recon_bound_t *b, FILE *f);
 /* <output>/bound.exr (bound, its standard error and the lower bound per
- * parameter) and
+ * parameter; with a local bound also bound_local_<param>, local_best's,
+ * and bound_local_r<N>_<param> for each radius N computed) and
  * <output>/bound_<param>.png. */
 hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *scene,
                                   const hetinv_medium_t *truth, const recon_bound_t *b);
