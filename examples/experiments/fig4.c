@@ -61,7 +61,10 @@
  * against it at no cost. With --bound a last table (fig4_target.csv) checks
  * the issue's target voxel by voxel: each voxel within 15 %, or within
  * 1.5× its own bound where that bound exceeds 15 % (verdict.c); a voxel
- * that misses both is the optimizer's miss, not the data's.
+ * that misses both is the optimizer's miss, not the data's. Where a cell's
+ * F̂ is not positive definite, the same counts follow against its local
+ * bound at each radius (a larger radius sees trades between neighbours;
+ * a voxel whose window is not positive definite there is counted apart).
  *
  * --minibatch N sets the sources drawn per iteration (default 16); with
  * --photons it trades sources against photons per source at a fixed

@@ -75,6 +75,34 @@ void experiment_verdict_print_efficient(const experiment_verdict_t *v, int p, co
          v->z_sum[p] / (double)n, v->z2_sum[p] / (double)n, v->z_max[p], experiment_expected_max_abs_normal(n));
 }
 
+/* Radius `radius`'s counts of parameter p from its channel (section of
+ * w columns), or false where bound.exr has none. */
+static bool add_radius(experiment_verdict_t *v, int p, hetinv_image_t *bound, int radius, const float *t,
+                       const float *r, const int32_t d[3]) {
+  char channel[64];
+  int32_t c = -1, w = 0;
+  snprintf(channel, sizeof channel, "bound_local_r%d_%s", radius, hetinv_param_name((hetinv_param_t)p));
+  if (hetinv_image_find_channel(bound, channel, &c) != HETINV_SUCCESS) return false;
+  hetinv_image_get_size(bound, &w, NULL, NULL);
+  const float *b = hetinv_image_channel_data(bound, c);
+  for (int32_t z = 0; z < d[2]; ++z) {
+    for (int32_t x = 0; x < d[0]; ++x) {
+      size_t k = ((size_t)z * (size_t)d[1] + (size_t)(d[1] / 2)) * (size_t)d[0] + (size_t)x;
+      double bk = (double)b[(size_t)z * (size_t)w + (size_t)x], truth = (double)t[k];
+      if (truth == 0.0) continue;
+      double err = fabs((double)r[k] - truth) / fabs(truth);
+      if (!(err > VERDICT_MAX_ERROR)) continue;
+      if (isnan(bk)) {
+        ++v->radius_undetermined[radius][p];
+      } else {
+        double allowed = bk > VERDICT_MAX_ERROR ? VERDICT_BOUND_FACTOR * bk : VERDICT_MAX_ERROR;
+        v->radius_unexplained[radius][p] += err > allowed;
+      }
+    }
+  }
+  return true;
+}
+
 static int add_param(hetinv_context_t *ctx, const char *dir, int p, hetinv_image_t *bound, bool local,
                      experiment_verdict_t *v, char *msg, size_t n) {
   const char *name = hetinv_param_name((hetinv_param_t)p);
@@ -103,6 +131,14 @@ static int add_param(hetinv_context_t *ctx, const char *dir, int p, hetinv_image
       double bk = (double)b[(size_t)z * (size_t)w + (size_t)x];
       experiment_verdict_voxel(v, p, (double)t[k], (double)r[k], bk, VERDICT_MAX_ERROR);
     }
+  }
+  if (status == 0 && p == 0) { /* the cell's radii, counted once */
+    int radii = 0;
+    while (local && radii < VERDICT_RADII && add_radius(v, p, bound, radii, t, r, dt)) ++radii;
+    v->radii = v->cells == 0 || radii < v->radii ? radii : v->radii;
+    ++v->cells;
+  } else if (status == 0) {
+    for (int radius = 0; radius < v->radii; ++radius) add_radius(v, p, bound, radius, t, r, dt);
   }
   free(t);
   free(r);

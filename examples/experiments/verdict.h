@@ -13,6 +13,7 @@
 #define VERDICT_MEAN_ERROR 0.07  /* the paper's mean relative error */
 #define VERDICT_MAX_ERROR 0.15   /* the paper's max relative error */
 #define VERDICT_BOUND_FACTOR 1.5 /* a miss within this × its bound is the data's */
+#define VERDICT_RADII 4          /* local bounds' radii looked for in bound.exr */
 
 typedef struct experiment_verdict {
   size_t voxels[3];      /* compared: with a finite, positive bound */
@@ -33,6 +34,14 @@ typedef struct experiment_verdict {
    * (truth · bound): Σz (a bias shows as a mean far from 0), Σz² (mean
    * near 1 for an efficient recovery) and max |z|. */
   double z_sum[3], z2_sum[3], z_max[3];
+  /* With local bounds whose bound.exr holds every radius computed
+   * (bound_local_r<N>_<param>): per radius, the voxels over 15 % not within
+   * that radius's allowance, and those over 15 % whose window at that
+   * radius is not positive definite (not counted as not within). radii is
+   * the fewest radii of the cells added (0: some cell has none). */
+  size_t cells;
+  int radii;
+  size_t radius_unexplained[VERDICT_RADII][3], radius_undetermined[VERDICT_RADII][3];
 } experiment_verdict_t;
 
 /* P(|N(0, 1)| > t). */
