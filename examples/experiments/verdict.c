@@ -45,6 +45,11 @@ double experiment_expected_max_abs_normal(size_t n) {
   return sum;
 }
 
+/* The rule's allowance for a voxel whose relative bound is `bound`. */
+static double allowance(double bound, double max_error) {
+  return bound > max_error ? VERDICT_BOUND_FACTOR * bound : max_error;
+}
+
 void experiment_verdict_voxel(experiment_verdict_t *v, int p, double truth, double recovered, double bound,
                               double max_error) {
   if (!(bound > 0.0) || !isfinite(bound) || truth == 0.0) return;
@@ -52,7 +57,7 @@ void experiment_verdict_voxel(experiment_verdict_t *v, int p, double truth, doub
   ++v->voxels[p];
   v->over[p] += err > max_error;
   /* The allowance grows with the bound only where the bound exceeds the target. */
-  double allowed = bound > max_error ? VERDICT_BOUND_FACTOR * bound : max_error;
+  double allowed = allowance(bound, max_error);
   v->unexplained[p] += err > allowed;
   double p_over = experiment_normal_tail2(max_error / bound), p_miss = experiment_normal_tail2(allowed / bound);
   v->efficient_over[p] += p_over;
@@ -94,9 +99,8 @@ static bool add_radius(experiment_verdict_t *v, int p, hetinv_image_t *bound, in
       if (!(err > VERDICT_MAX_ERROR)) continue;
       if (isnan(bk)) {
         ++v->radius_undetermined[radius][p];
-      } else {
-        double allowed = bk > VERDICT_MAX_ERROR ? VERDICT_BOUND_FACTOR * bk : VERDICT_MAX_ERROR;
-        v->radius_unexplained[radius][p] += err > allowed;
+      } else if (bk > 0.0 && isfinite(bk)) { /* as experiment_verdict_voxel: no light, no count */
+        v->radius_unexplained[radius][p] += err > allowance(bk, VERDICT_MAX_ERROR);
       }
     }
   }
