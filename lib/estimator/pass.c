@@ -13,6 +13,7 @@
 #include "estimator/batches.h"
 #include "medium/medium_internal.h"
 #include "sampling/measurements_internal.h"
+#include "transport/lanes.h"
 #include "transport/sensor_kind.h"
 
 /* Epoch 0 keeps the context's seed; others map (seed, epoch) to a new key
@@ -192,7 +193,12 @@ void hv_pass_trace_batch(const hv_pass_t *pass, int32_t e, int32_t b, hv_tally_t
     tracer.grid = &pass->grid_copies[t - 1];
   }
 #endif
-  for (uint64_t p = hv_batch_begin(pass->photons, pass->batches, b); p < end; ++p) {
+  uint64_t begin = hv_batch_begin(pass->photons, pass->batches, b);
+  if (hv_lanes_fit(&tracer, plan, tally)) {
+    hv_trace_lanes(&tracer, plan, pass->seed, pass->stream, begin, end, tally);
+    return;
+  }
+  for (uint64_t p = begin; p < end; ++p) {
     hv_rng_t rng = hv_rng_init(pass->seed, plan->key, p, pass->stream);
     hv_trace_photon(&tracer, plan, &rng, tally);
   }

@@ -4,11 +4,10 @@
 #include <string.h>
 
 #include "core/compiler.h"
-#include "medium/fresnel.h"
 #include "medium/phase.h"
-#include "sampling/emitter_internal.h"
-#include "transport/sensor_kind.h"
 #include "transport/delta.h"
+#include "transport/lanes.h"
+#include "transport/photon.h"
 #include "transport/walk.h"
 
 typedef struct extinction_visit {
@@ -63,25 +62,10 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
 static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng,
                           hv_ray_t *r, hetinv_face_t face, double w, double tau, int32_t scatterings,
                           hv_tally_t *tally) {
-  const hv_grid_t *grid = tr->grid;
-  int a = hv_face_axis(face);
-  double cos_i = fabs(r->d[a]), cos_t;
-  double eta = grid->eta_out / grid->eta;
-  double R = hv_fresnel_dielectric(cos_i, eta, &cos_t);
-  if (R > 0.0 && (R >= 1.0 || hv_rng_uniform(rng) < R)) {
-    r->d[a] = -r->d[a];
-    hv_ray_locate(grid, r);
-    return 0;
-  }
-  tally->stats[HV_STAT_ESCAPED + face] += w;
-  bool counted = scatterings >= tr->min_scattering &&
-                 (tr->max_scattering == 0 || scatterings <= tr->max_scattering);
-  if (!counted) return 1;
+  double cos_t, eta;
+  if (hv_photon_reflects(tr->grid, rng, r, face, &cos_t, &eta)) return 0;
   const hv_exit_t leaving = {r, face, cos_t, eta, w, tau, scatterings};
-  for (int32_t i = 0; i < plan->exit_count; ++i) {
-    const hv_sensor_target_t *t = plan->at_exit[i];
-    t->kind->at_exit(tr, plan, t, &leaving, tally);
-  }
+  hv_photon_exit(tr, plan, &leaving, tally);
   return 1;
 }
 
@@ -92,21 +76,11 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
                                           hv_rng_t *rng, hv_tally_t *tally, const bool grad) {
   const hv_grid_t *grid = tr->grid;
   hv_path_log_t *plog = grad ? &tally->grad->path : NULL;
-  hv_launch_t launch;
-  hv_emitter_sample(plan->emitter, rng, &launch);
-
-  /* Refraction into the medium; what the first surface reflects never enters. */
-  double n[3], cos_t;
-  hv_face_normal(launch.face, n);
-  double eta_in = grid->eta / grid->eta_out;
-  double R = hv_fresnel_dielectric(fabs(launch.direction[hv_face_axis(launch.face)]), eta_in, &cos_t);
-  tally->stats[HV_STAT_SPECULAR] += launch.weight * R;
-  double w = launch.weight * (1.0 - R);
-  if (!(w > 0.0)) return;
   hv_ray_t r;
-  memcpy(r.p, launch.point, sizeof r.p);
-  hv_refract_cos(launch.direction, n, eta_in, cos_t, r.d);
-  hv_ray_locate(grid, &r);
+  double w, specular;
+  bool entered = hv_photon_launch(tr, plan, rng, &r, &w, &specular);
+  tally->stats[HV_STAT_SPECULAR] += specular;
+  if (!entered) return;
 
   /* A score pass pays twice for a delta-tracked path that reaches a
    * sensor: its tentative collisions, then the walk that splits its

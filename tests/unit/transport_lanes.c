@@ -1,0 +1,180 @@
+/* The lane loop (transport/lanes.h) against the scalar photon loop: the
+ * same photons traced four at a time must leave bitwise the same tally
+ * (every value and every statistic) as hv_trace_photon one after another.
+ * The media cover each way a lane leaves the vectors: exits through either
+ * face, Fresnel reflection at a mismatched index, Russian roulette often,
+ * the scattering bound, a purely absorbing medium and a vacuum, and both
+ * forms of the Henyey–Greenstein inverse (|g| below and above 1/3, g < 0).
+ * The photon range starts off zero and is longer than the lanes' record
+ * ring, so lanes wait for a long path and refill out of order. */
+#include <string.h>
+
+#include "test_support.h"
+
+#include "core/exponential.h"
+#include "core/rng.h"
+#include "medium/medium_internal.h"
+#include "transport/grid.h"
+#include "transport/lanes.h"
+#include "transport/plan.h"
+#include "transport/tracer.h"
+
+enum { BINS = 5, VALUES = 2 * BINS };
+
+typedef struct medium_case {
+  const char *name;
+  double sigma_a, sigma_s, g, eta;
+  double roulette_weight, roulette_survival;
+  int32_t min_scattering, max_scattering;
+} medium_case_t;
+
+static const medium_case_t CASES[] = {
+    {"A1-like", 1.0, 10.0, 0.5, 1.0, 1e-4, 0.1, 0, 1000000},
+    {"mismatched index, small g", 0.5, 5.0, 0.2, 1.37, 1e-4, 0.1, 0, 1000000},
+    {"backward g, frequent roulette", 0.1, 3.0, -0.6, 1.0, 0.3, 0.5, 0, 1000000},
+    {"scattering bound and minimum", 0.2, 8.0, 0.9, 1.2, 1e-4, 0.1, 2, 7},
+    {"absorbing only", 2.0, 0.0, 0.0, 1.4, 1e-4, 0.1, 0, 1000000},
+    {"vacuum", 0.0, 0.0, 0.3, 1.0, 1e-4, 0.1, 0, 1000000},
+};
+
+typedef struct scene {
+  hetinv_context_t *ctx;
+  hetinv_medium_t *medium;
+  hetinv_emitter_t *beam;
+  hetinv_sensor_t *near, *far;
+  hetinv_pathlength_t *bins;
+  hetinv_measurements_t *set;
+  hv_grid_t grid;
+  hv_plans_t plans;
+  hv_exp_table_t table;
+  hv_tracer_t tracer;
+} scene_t;
+
+static void scene_make(scene_t *s, const medium_case_t *c, bool uniform) {
+  memset(s, 0, sizeof *s);
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  assert_ok(hetinv_context_create(&init, &s->ctx));
+  assert_ok(hetinv_medium_create(s->ctx, (double[]){0, 0, 0}, (double[]){2, 2, 1}, (int32_t[]){4, 4, 2},
+                                 &s->medium));
+  assert_ok(hetinv_medium_fill(s->medium, c->sigma_a, c->sigma_s, c->g));
+  if (!uniform) assert_ok(hetinv_medium_set_voxel(s->medium, 1, 2, 1, c->sigma_a + 1.0, c->sigma_s, c->g));
+  assert_ok(hetinv_medium_set_ior(s->medium, c->eta, 1.0));
+  assert_ok(hetinv_medium_commit(s->medium));
+  /* Oblique, so that the launch refracts and the box's side faces are met. */
+  assert_ok(hetinv_emitter_create_ideal(s->medium, (double[]){0.7, 1.1, 2.0}, (double[]){0.3, -0.2, -1.0},
+                                        &s->beam));
+  assert_ok(hetinv_sensor_create_hemispherical(s->medium, HETINV_FACE_Z_MAX, NULL, NULL, &s->near));
+  assert_ok(hetinv_sensor_create_hemispherical(s->medium, HETINV_FACE_Z_MIN, NULL, NULL, &s->far));
+  double centres[BINS] = {0.5, 1.5, 2.5, 3.5, 4.5};
+  assert_ok(hetinv_pathlength_create_bins(s->ctx, HETINV_WINDOW_BOX, BINS, centres, 1.0, &s->bins));
+  assert_ok(hetinv_measurements_create(s->ctx, &s->set));
+  assert_ok(hetinv_measurements_add(s->set, s->beam, s->near, s->bins, NULL));
+  assert_ok(hetinv_measurements_add(s->set, s->beam, s->far, s->bins, NULL));
+  assert_int_equal(hetinv_measurements_value_count(s->set), VALUES);
+  assert_ok(hv_grid_build(s->medium, &s->grid));
+  assert_ok(hv_plans_build(s->set, &s->plans));
+  hv_exp_table_init(&s->table);
+  s->tracer = (hv_tracer_t){.grid = &s->grid,
+                            .exp_table = &s->table,
+                            .roulette_weight = c->roulette_weight,
+                            .roulette_survival = c->roulette_survival,
+                            .min_scattering = c->min_scattering,
+                            .max_scattering = c->max_scattering};
+}
+
+static void scene_release(scene_t *s) {
+  hv_plans_release(&s->plans);
+  hv_grid_release(&s->grid);
+  hetinv_measurements_destroy(&s->set);
+  hetinv_pathlength_destroy(&s->bins);
+  hetinv_sensor_destroy(&s->near);
+  hetinv_sensor_destroy(&s->far);
+  hetinv_emitter_destroy(&s->beam);
+  hetinv_medium_destroy(&s->medium);
+  hetinv_context_destroy(&s->ctx);
+}
+
+static void lanes_leave_the_scalar_loops_tally_bit_for_bit(void **state) {
+  (void)state;
+  const uint64_t seed = UINT64_C(0x1a2e5), first = 17, end = 17 + 3001;
+  const uint32_t stream = 3;
+  for (size_t i = 0; i < sizeof CASES / sizeof CASES[0]; ++i) {
+    scene_t s;
+    scene_make(&s, &CASES[i], true);
+    assert_int_equal(s.plans.count, 1);
+    const hv_plan_t *plan = &s.plans.plan[0];
+    double v_scalar[VALUES] = {0}, v_lanes[VALUES] = {0};
+    hv_tally_t scalar = {.values = v_scalar}, lanes = {.values = v_lanes};
+    assert_true(hv_lanes_fit(&s.tracer, plan, &lanes));
+    for (uint64_t p = first; p < end; ++p) {
+      hv_rng_t rng = hv_rng_init(seed, plan->key, p, stream);
+      hv_trace_photon(&s.tracer, plan, &rng, &scalar);
+    }
+    hv_trace_lanes(&s.tracer, plan, seed, stream, first, end, &lanes);
+    print_message("%-30s near %.6f far %.6f absorbed %.6f truncated paths %g\n", CASES[i].name,
+                  v_scalar[0] + v_scalar[1] + v_scalar[2] + v_scalar[3] + v_scalar[4],
+                  v_scalar[5] + v_scalar[6] + v_scalar[7] + v_scalar[8] + v_scalar[9],
+                  scalar.stats[HV_STAT_ABSORBED], scalar.stats[HV_STAT_TRUNCATED_PATHS]);
+    assert_memory_equal(v_scalar, v_lanes, sizeof v_scalar);
+    assert_memory_equal(scalar.stats, lanes.stats, sizeof scalar.stats);
+    scene_release(&s);
+  }
+}
+
+/* Each case exercises what it is named for, or the comparison above
+ * proves less than it claims. */
+static void the_cases_reach_the_paths_they_are_named_for(void **state) {
+  (void)state;
+  double escaped_far[sizeof CASES / sizeof CASES[0]], truncated[sizeof CASES / sizeof CASES[0]];
+  for (size_t i = 0; i < sizeof CASES / sizeof CASES[0]; ++i) {
+    scene_t s;
+    scene_make(&s, &CASES[i], true);
+    double v[VALUES] = {0};
+    hv_tally_t t = {.values = v};
+    hv_trace_lanes(&s.tracer, &s.plans.plan[0], 7, 0, 0, 2000, &t);
+    escaped_far[i] = t.stats[HV_STAT_ESCAPED + HETINV_FACE_Z_MIN];
+    truncated[i] = t.stats[HV_STAT_TRUNCATED_PATHS];
+    if (CASES[i].eta != 1.0) assert_true(t.stats[HV_STAT_SPECULAR] > 0.0);
+    scene_release(&s);
+  }
+  assert_true(truncated[3] > 0.0);       /* the scattering bound */
+  assert_true(escaped_far[4] > 0.0);     /* some photons cross an absorbing slab unscattered */
+  assert_true(escaped_far[5] > 1999.0);  /* a vacuum: every photon crosses (ideal beam, weight 1) */
+}
+
+static void only_forward_tallies_of_uniform_grids_without_vertex_sensors_fit(void **state) {
+  (void)state;
+  scene_t s;
+  scene_make(&s, &CASES[0], false);
+  hv_tally_t t = {0};
+  assert_false(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &t)); /* one voxel differs */
+  scene_release(&s);
+  scene_make(&s, &CASES[0], true);
+  hv_grad_tally_t gt = {0};
+  hv_tally_t g = {.grad = &gt};
+  assert_false(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &g));
+  assert_true(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &t));
+  /* A camera scores next-event connections at every vertex. */
+  hetinv_sensor_t *camera = NULL;
+  assert_ok(hetinv_sensor_create_orthographic(s.medium, HETINV_FACE_Z_MAX, (double[]){0, 0, 1}, (double[]){0, 0},
+                                              (double[]){1, 1}, 2, 2, &camera));
+  hetinv_measurements_t *set = NULL;
+  hv_plans_t plans;
+  assert_ok(hetinv_measurements_create(s.ctx, &set));
+  assert_ok(hetinv_measurements_add(set, s.beam, camera, s.bins, NULL));
+  assert_ok(hv_plans_build(set, &plans));
+  assert_false(hv_lanes_fit(&s.tracer, &plans.plan[0], &t));
+  hv_plans_release(&plans);
+  hetinv_measurements_destroy(&set);
+  hetinv_sensor_destroy(&camera);
+  scene_release(&s);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(lanes_leave_the_scalar_loops_tally_bit_for_bit),
+      cmocka_unit_test(the_cases_reach_the_paths_they_are_named_for),
+      cmocka_unit_test(only_forward_tallies_of_uniform_grids_without_vertex_sensors_fit),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
