@@ -13,7 +13,7 @@
  * every lane, so a lane computes exactly what the scalar expression does
  * when the operations come in the same order (contraction is off); the
  * x86-64-v3 clone makes them AVX2 instructions, the baseline SSE2 pairs. */
-#if defined(__GNUC__) && !defined(__clang__)
+#if defined(__GNUC__) || defined(__clang__)
 /* Every function here that takes or returns a vector is static and
  * inlined: no vector crosses a call, so the AVX calling convention the
  * warning is about never applies. */
