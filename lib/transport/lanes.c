@@ -5,6 +5,7 @@
 
 #include "core/bits.h"
 #include "core/compiler.h"
+#include "transport/delta.h"
 #include "transport/photon.h"
 #include "transport/walk.h"
 
@@ -44,19 +45,22 @@ HV_ALWAYS_INLINE static inline v4d vsqrt(v4d x) {
   return r;
 }
 
-/* hv_hg_sample_cos on four lanes with one g (the grid's); `small` is
- * |g| < 1/3, which picks the form, as there. */
-HV_ALWAYS_INLINE static inline v4d hg_sample_cos(double g, bool small, v4d u) {
-  v4d c;
-  if (small) {
+/* hv_hg_sample_cos on four lanes, each with its g; the form is chosen per
+ * lane by |g| < 1/3, as there, and only the forms some lane needs are
+ * computed (`need`: the lanes whose result is used). */
+HV_ALWAYS_INLINE static inline v4d hg_sample_cos(v4d g, v4d u, v4m need) {
+  const v4d one = splat(1.0);
+  v4m small = (v4d)((v4u)g & ~(v4u)splat(-0.0)) < splat(1.0 / 3.0); /* |g| < 1/3 */
+  v4d c = splat(0.0);
+  if (any(need & small)) {
     v4d a = 1.0 - 2.0 * u, d = 1.0 - g * a;
     c = (-2.0 * a + g * (a * a + 3.0 - g * (2.0 * a - g * (a * a - 1.0)))) / (2.0 * d * d);
-  } else {
-    double A = (1.0 - g) * (1.0 + g);
-    v4d D = 1.0 - g + 2.0 * g * u, D2 = D * D;
-    c = ((1.0 + g * g) * D2 - A * A) / (2.0 * g * D2);
   }
-  v4d one = splat(1.0);
+  if (any(need & ~small)) {
+    v4d A = (1.0 - g) * (1.0 + g);
+    v4d D = 1.0 - g + 2.0 * g * u, D2 = D * D;
+    c = pick(small, c, ((1.0 + g * g) * D2 - A * A) / (2.0 * g * D2));
+  }
   return pick(c < -one, -one, pick(c > one, one, c));
 }
 
@@ -100,9 +104,11 @@ typedef struct record {
 
 typedef struct lanes {
   /* The photons in flight: position, direction, weight, pathlength and
-   * absorbed power, lane by lane. */
-  v4d p[3], d[3], w, tau, absorbed;
+   * absorbed power, lane by lane; the distance of the flight's (tentative)
+   * collision, and the angles its block drew for the scattering there. */
+  v4d p[3], d[3], w, tau, absorbed, x, u1, u2;
   v4m scatterings;
+  v4m flying; /* the lane's flight is drawn: x holds its next tentative collision */
   unsigned active; /* bit l: lane l holds a photon */
   uint64_t photon[LANES];
   hv_ray_t at[LANES]; /* each photon's voxel (v, k) as the scalar loop keeps it */
@@ -155,6 +161,7 @@ static bool launch(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, 
   s->tau[l] = 0.0;
   s->absorbed[l] = 0.0;
   s->scatterings[l] = 0;
+  s->flying[l] = 0;
   s->active |= 1u << l;
   return true;
 }
@@ -167,6 +174,8 @@ static void at_boundary(const hv_grid_t *grid, lanes_t *s, int l) {
   double dist, cos_t, eta;
   hetinv_face_t face;
   hv_ray_exit_box(grid, &r, &dist, &face);
+  if (grid->delta) hv_ray_locate(grid, &r); /* as hv_ray_march_delta: the last voxel inside */
+  s->flying[l] = 0;
   double tau = s->tau[l] + dist;
   s->tau[l] = tau;
   bool reflected = hv_photon_reflects(grid, &s->rng[l], &r, face, &cos_t, &eta);
@@ -204,17 +213,54 @@ static void add_finished(const hv_tracer_t *tr, const hv_plan_t *plan, lanes_t *
 }
 
 bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t *tally) {
-  return tally->grad == NULL && tr->grid->uniform && plan->vertex_count == 0;
+  return tally->grad == NULL && (tr->grid->uniform || tr->grid->delta) && plan->vertex_count == 0;
+}
+
+/* Lanes whose tentative collision at q is kept (delta tracking): the
+ * scalar loop's test, on each lane's stream; a lane whose collision is
+ * dropped draws its next one. `in`: the lanes whose collision lies in the
+ * box. The kept ones' voxels go to s->at, their records to albedo and g. */
+HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t *s, v4m in, const v4d q[3],
+                                                 v4d *albedo, v4d *g) {
+  const hv_grid_t *grid = tr->grid;
+  v4m kept = in;
+  /* Every lane's voxel first, and its loads started: the four lanes' cache
+   * misses (a large grid's record and byte) then overlap. */
+  hv_ray_t at[LANES];
+  for (int l = 0; l < LANES; ++l) {
+    if (!in[l]) continue;
+    hv_ray_t *c = &at[l];
+    *c = s->at[l];
+    for (int a = 0; a < 3; ++a) c->p[a] = q[a][l];
+    hv_ray_locate_inside(grid, c);
+    HV_PREFETCH(&grid->sigma_t_q[c->k]);
+    HV_PREFETCH(&grid->voxel[c->k]);
+  }
+  for (int l = 0; l < LANES; ++l) {
+    if (!in[l]) continue;
+    const hv_ray_t c = at[l];
+    if (hv_delta_keep(grid, c.k, hv_rng_u32(&s->rng[l]))) {
+      s->at[l] = c;
+      (*albedo)[l] = grid->voxel[c.k].albedo;
+      (*g)[l] = grid->voxel[c.k].g;
+    } else {
+      kept[l] = 0;
+      s->x[l] += hv_exp_sample(tr->exp_table, hv_rng_u64(&s->rng[l]), &s->rng[l]) * grid->inv_majorant;
+    }
+  }
+  return kept;
 }
 
 HV_TARGET_CLONES_X86_64_V3
 void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, uint32_t stream,
                     uint64_t first, uint64_t end, hv_tally_t *tally) {
   const hv_grid_t *grid = tr->grid;
-  const hv_voxel_t *vx = &grid->voxel[0]; /* every voxel is alike */
-  const double albedo = vx->albedo, g = vx->g, inv_sigma_t = grid->inv_sigma_t;
-  const bool small_g = fabs(g) < 1.0 / 3.0;
+  /* A uniform grid: every voxel is voxel 0, and a flight's collision is
+   * its first tentative one (x = depth/σt). Else delta tracking. */
+  const bool delta = !grid->uniform;
+  const double step = delta ? grid->inv_majorant : grid->inv_sigma_t;
   const v4d zero = splat(0.0);
+  v4d albedo = splat(grid->voxel[0].albedo), g = splat(grid->voxel[0].g);
   lanes_t s;
   s.active = 0;
   s.next = s.added = first;
@@ -225,49 +271,54 @@ void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
       }
     }
     if (s.active == 0) break;
-    /* One Philox block per flight and scattering, as in the scalar loop. */
-    v4d depth = zero, u1 = splat(0.5), u2 = splat(0.5);
+    /* A lane without a flight draws one: one Philox block per flight and
+     * scattering, as in the scalar loop. */
     v4m act;
     for (int l = 0; l < LANES; ++l) {
       act[l] = -(int64_t)(s.active >> l & 1u);
-      if (!act[l]) continue;
+      if (!act[l] || s.flying[l]) continue;
       philox4x32_ctr_t blk = hv_rng_block(&s.rng[l]);
-      depth[l] = hv_exp_sample(tr->exp_table, (uint64_t)blk.v[0] << 32 | blk.v[1], &s.rng[l]);
-      u1[l] = hv_unit_from_u32(blk.v[2]);
-      u2[l] = hv_unit_from_u32(blk.v[3]);
+      s.x[l] = hv_exp_sample(tr->exp_table, (uint64_t)blk.v[0] << 32 | blk.v[1], &s.rng[l]) * step;
+      s.u1[l] = hv_unit_from_u32(blk.v[2]);
+      s.u2[l] = hv_unit_from_u32(blk.v[3]);
+      s.flying[l] = -1;
     }
-    /* hv_ray_march_uniform: the collision, if it lies in the box. */
-    v4d x = depth * inv_sigma_t, q[3];
+    /* The (tentative) collision, if it lies in the box. */
+    v4d q[3];
     v4m in = act;
     for (int a = 0; a < 3; ++a) {
-      q[a] = s.p[a] + x * s.d[a];
+      q[a] = s.p[a] + s.x * s.d[a];
       in &= (q[a] >= splat(grid->lo[a])) & (q[a] <= splat(grid->hi[a]));
     }
-    for (int a = 0; a < 3; ++a) s.p[a] = pick(in, q[a], s.p[a]);
-    s.tau = s.tau + keep(in, x); /* tau + 0 is tau */
     v4m out = act & ~in;
     if (any(out)) {
       for (int l = 0; l < LANES; ++l) {
         if (out[l]) at_boundary(grid, &s, l);
       }
     }
+    v4m hit = delta ? keep_tentative(tr, &s, in, q, &albedo, &g) : in;
+    for (int a = 0; a < 3; ++a) s.p[a] = pick(hit, q[a], s.p[a]);
+    s.tau = s.tau + keep(hit, s.x); /* tau + 0 is tau */
+    s.flying &= ~hit;
     /* A collision: the albedo, then the phase function. */
-    s.scatterings -= in;
-    s.absorbed = s.absorbed + keep(in, s.w * (1.0 - albedo));
-    s.w = pick(in, s.w * albedo, s.w);
-    v4m live = in & (s.w > zero), ended = in & ~live, truncated = {0, 0, 0, 0};
+    s.scatterings -= hit;
+    s.absorbed = s.absorbed + keep(hit, s.w * (1.0 - albedo));
+    s.w = pick(hit, s.w * albedo, s.w);
+    v4m live = hit & (s.w > zero), ended = hit & ~live, truncated = {0, 0, 0, 0};
     if (tr->max_scattering > 0) {
       truncated = live & (s.scatterings > (int64_t)tr->max_scattering);
       live &= ~truncated;
     }
-    v4d d_new[3];
-    dir_from_cos_phi(s.d, hg_sample_cos(g, small_g, u1), u2, d_new);
-    for (int a = 0; a < 3; ++a) s.d[a] = pick(live, d_new[a], s.d[a]);
+    if (any(live)) {
+      v4d d_new[3];
+      dir_from_cos_phi(s.d, hg_sample_cos(g, s.u1, live), s.u2, d_new);
+      for (int a = 0; a < 3; ++a) s.d[a] = pick(live, d_new[a], s.d[a]);
+    }
     v4m low = live & (s.w < splat(tr->roulette_weight));
     if (any(ended | truncated | low)) {
       for (int l = 0; l < LANES; ++l) {
         if (ended[l]) {
-          finish(&s, l); /* a purely absorbing medium */
+          finish(&s, l); /* a purely absorbing voxel */
         } else if (truncated[l]) {
           record_t *rec = &s.ring[s.photon[l] % RING];
           rec->was_truncated = true;

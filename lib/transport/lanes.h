@@ -1,4 +1,5 @@
-/* Forward photons of a uniform grid, four at a time in SIMD lanes.
+/* Forward photons of a uniform or delta-tracked grid, four at a time in
+ * SIMD lanes.
  *
  * The scalar loop (tracer.c) is one photon's chain of dependent steps: a
  * free flight, then the phase function's division, square root and
@@ -19,8 +20,9 @@
 #include "transport/tracer.h"
 
 /* Whether hv_trace_lanes can trace plan's photons into tally: a forward
- * tally (no gradient), a uniform grid, and a plan without vertex sensors
- * (its sensors score exits only). */
+ * tally (no gradient), a grid that is uniform or delta-tracked (not
+ * stepped: the lanes do not walk voxel faces), and a plan without vertex
+ * sensors (its sensors score exits only). */
 bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t *tally);
 
 /* Photons first ... end - 1 of plan's emitter, photon p on the stream

@@ -4,7 +4,9 @@
  * The media cover each way a lane leaves the vectors: exits through either
  * face, Fresnel reflection at a mismatched index, Russian roulette often,
  * the scattering bound, a purely absorbing medium and a vacuum, and both
- * forms of the Henyey–Greenstein inverse (|g| below and above 1/3, g < 0).
+ * forms of the Henyey–Greenstein inverse (|g| below and above 1/3, g < 0);
+ * each as a uniform grid and with every voxel different (delta tracking,
+ * tentative collisions kept and dropped, lanes with either form at once).
  * The photon range starts off zero and is longer than the lanes' record
  * ring, so lanes wait for a long path and refill out of order. */
 #include <string.h>
@@ -50,14 +52,23 @@ typedef struct scene {
   hv_tracer_t tracer;
 } scene_t;
 
-static void scene_make(scene_t *s, const medium_case_t *c, bool uniform) {
+/* The voxels: all alike (a uniform grid), each different (delta tracking:
+ * σa and σs within a factor 1.5 of the case's, g across both forms of the
+ * inverse), or one dense voxel (stepping, which the lanes do not take). */
+typedef enum field { UNIFORM, VARIED, DENSE } field_t;
+
+static void scene_make(scene_t *s, const medium_case_t *c, field_t field) {
   memset(s, 0, sizeof *s);
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   assert_ok(hetinv_context_create(&init, &s->ctx));
   assert_ok(hetinv_medium_create(s->ctx, (double[]){0, 0, 0}, (double[]){2, 2, 1}, (int32_t[]){4, 4, 2},
                                  &s->medium));
   assert_ok(hetinv_medium_fill(s->medium, c->sigma_a, c->sigma_s, c->g));
-  if (!uniform) assert_ok(hetinv_medium_set_voxel(s->medium, 1, 2, 1, c->sigma_a + 1.0, c->sigma_s, c->g));
+  if (field == DENSE) assert_ok(hetinv_medium_set_voxel(s->medium, 1, 2, 1, 1000.0, c->sigma_s, c->g));
+  for (int32_t i = 0; field == VARIED && i < 4 * 4 * 2; ++i) {
+    double f = 0.75 + 0.5 * (double)((i * 7) % 11) / 10.0, g = (double)((i * 5) % 9) / 5.0 - 0.8;
+    assert_ok(hetinv_medium_set_voxel(s->medium, i % 4, (i / 4) % 4, i / 16, c->sigma_a * f, c->sigma_s / f, g));
+  }
   assert_ok(hetinv_medium_set_ior(s->medium, c->eta, 1.0));
   assert_ok(hetinv_medium_commit(s->medium));
   /* Oblique, so that the launch refracts and the box's side faces are met. */
@@ -98,10 +109,18 @@ static void lanes_leave_the_scalar_loops_tally_bit_for_bit(void **state) {
   (void)state;
   const uint64_t seed = UINT64_C(0x1a2e5), first = 17, end = 17 + 3001;
   const uint32_t stream = 3;
-  for (size_t i = 0; i < sizeof CASES / sizeof CASES[0]; ++i) {
+  for (size_t j = 0; j < 2 * sizeof CASES / sizeof CASES[0]; ++j) {
+    size_t i = j / 2;
+    field_t field = j % 2 ? VARIED : UNIFORM;
     scene_t s;
-    scene_make(&s, &CASES[i], true);
+    scene_make(&s, &CASES[i], field);
     assert_int_equal(s.plans.count, 1);
+    assert_true(field == VARIED || s.grid.uniform);
+    if (field == VARIED && !s.grid.delta) { /* a vacuum of varied g: nothing to track */
+      assert_true(CASES[i].sigma_a + CASES[i].sigma_s == 0.0);
+      scene_release(&s);
+      continue;
+    }
     const hv_plan_t *plan = &s.plans.plan[0];
     double v_scalar[VALUES] = {0}, v_lanes[VALUES] = {0};
     hv_tally_t scalar = {.values = v_scalar}, lanes = {.values = v_lanes};
@@ -111,8 +130,8 @@ static void lanes_leave_the_scalar_loops_tally_bit_for_bit(void **state) {
       hv_trace_photon(&s.tracer, plan, &rng, &scalar);
     }
     hv_trace_lanes(&s.tracer, plan, seed, stream, first, end, &lanes);
-    print_message("%-30s near %.6f far %.6f absorbed %.6f truncated paths %g\n", CASES[i].name,
-                  v_scalar[0] + v_scalar[1] + v_scalar[2] + v_scalar[3] + v_scalar[4],
+    print_message("%-30s %-7s near %.6f far %.6f absorbed %.6f truncated paths %g\n", CASES[i].name,
+                  field == UNIFORM ? "uniform" : "varied", v_scalar[0] + v_scalar[1] + v_scalar[2] + v_scalar[3] + v_scalar[4],
                   v_scalar[5] + v_scalar[6] + v_scalar[7] + v_scalar[8] + v_scalar[9],
                   scalar.stats[HV_STAT_ABSORBED], scalar.stats[HV_STAT_TRUNCATED_PATHS]);
     assert_memory_equal(v_scalar, v_lanes, sizeof v_scalar);
@@ -128,7 +147,7 @@ static void the_cases_reach_the_paths_they_are_named_for(void **state) {
   double escaped_far[sizeof CASES / sizeof CASES[0]], truncated[sizeof CASES / sizeof CASES[0]];
   for (size_t i = 0; i < sizeof CASES / sizeof CASES[0]; ++i) {
     scene_t s;
-    scene_make(&s, &CASES[i], true);
+    scene_make(&s, &CASES[i], UNIFORM);
     double v[VALUES] = {0};
     hv_tally_t t = {.values = v};
     hv_trace_lanes(&s.tracer, &s.plans.plan[0], 7, 0, 0, 2000, &t);
@@ -145,11 +164,16 @@ static void the_cases_reach_the_paths_they_are_named_for(void **state) {
 static void only_forward_tallies_of_uniform_grids_without_vertex_sensors_fit(void **state) {
   (void)state;
   scene_t s;
-  scene_make(&s, &CASES[0], false);
+  scene_make(&s, &CASES[0], DENSE);
   hv_tally_t t = {0};
-  assert_false(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &t)); /* one voxel differs */
+  assert_false(s.grid.uniform || s.grid.delta);
+  assert_false(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &t)); /* stepping */
   scene_release(&s);
-  scene_make(&s, &CASES[0], true);
+  scene_make(&s, &CASES[0], VARIED);
+  assert_true(s.grid.delta);
+  assert_true(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &t));
+  scene_release(&s);
+  scene_make(&s, &CASES[0], UNIFORM);
   hv_grad_tally_t gt = {0};
   hv_tally_t g = {.grad = &gt};
   assert_false(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &g));
