@@ -45,6 +45,22 @@ HV_ALWAYS_INLINE static inline v4d vsqrt(v4d x) {
   return r;
 }
 
+/* hv_hg_sample_cos on four lanes with one g (a uniform grid's); `small`
+ * is |g| < 1/3, which picks the form, as there. */
+HV_ALWAYS_INLINE static inline v4d hg_sample_cos_one_g(double g, bool small, v4d u) {
+  v4d c;
+  if (small) {
+    v4d a = 1.0 - 2.0 * u, d = 1.0 - g * a;
+    c = (-2.0 * a + g * (a * a + 3.0 - g * (2.0 * a - g * (a * a - 1.0)))) / (2.0 * d * d);
+  } else {
+    double A = (1.0 - g) * (1.0 + g);
+    v4d D = 1.0 - g + 2.0 * g * u, D2 = D * D;
+    c = ((1.0 + g * g) * D2 - A * A) / (2.0 * g * D2);
+  }
+  v4d one = splat(1.0);
+  return pick(c < -one, -one, pick(c > one, one, c));
+}
+
 /* hv_hg_sample_cos on four lanes, each with its g; the form is chosen per
  * lane by |g| < 1/3, as there, and only the forms some lane needs are
  * computed (`need`: the lanes whose result is used). */
@@ -251,14 +267,15 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t
   return kept;
 }
 
-HV_TARGET_CLONES_X86_64_V3
-void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, uint32_t stream,
-                    uint64_t first, uint64_t end, hv_tally_t *tally) {
+/* The loop, inlined twice with `delta` a constant. A uniform grid
+ * (!delta): every voxel is voxel 0, and a flight's collision is its first
+ * tentative one (x = depth/σt), so no lane is ever left mid-flight. */
+HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
+                                                uint32_t stream, uint64_t first, uint64_t end, hv_tally_t *tally,
+                                                const bool delta) {
   const hv_grid_t *grid = tr->grid;
-  /* A uniform grid: every voxel is voxel 0, and a flight's collision is
-   * its first tentative one (x = depth/σt). Else delta tracking. */
-  const bool delta = !grid->uniform;
   const double step = delta ? grid->inv_majorant : grid->inv_sigma_t;
+  const bool small_g = fabs(grid->voxel[0].g) < 1.0 / 3.0; /* uniform grids only */
   const v4d zero = splat(0.0);
   v4d albedo = splat(grid->voxel[0].albedo), g = splat(grid->voxel[0].g);
   lanes_t s;
@@ -276,12 +293,12 @@ void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
     v4m act;
     for (int l = 0; l < LANES; ++l) {
       act[l] = -(int64_t)(s.active >> l & 1u);
-      if (!act[l] || s.flying[l]) continue;
+      if (!act[l] || (delta && s.flying[l])) continue;
       philox4x32_ctr_t blk = hv_rng_block(&s.rng[l]);
       s.x[l] = hv_exp_sample(tr->exp_table, (uint64_t)blk.v[0] << 32 | blk.v[1], &s.rng[l]) * step;
       s.u1[l] = hv_unit_from_u32(blk.v[2]);
       s.u2[l] = hv_unit_from_u32(blk.v[3]);
-      s.flying[l] = -1;
+      if (delta) s.flying[l] = -1;
     }
     /* The (tentative) collision, if it lies in the box. */
     v4d q[3];
@@ -299,7 +316,7 @@ void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
     v4m hit = delta ? keep_tentative(tr, &s, in, q, &albedo, &g) : in;
     for (int a = 0; a < 3; ++a) s.p[a] = pick(hit, q[a], s.p[a]);
     s.tau = s.tau + keep(hit, s.x); /* tau + 0 is tau */
-    s.flying &= ~hit;
+    if (delta) s.flying &= ~hit;
     /* A collision: the albedo, then the phase function. */
     s.scatterings -= hit;
     s.absorbed = s.absorbed + keep(hit, s.w * (1.0 - albedo));
@@ -311,7 +328,8 @@ void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
     }
     if (any(live)) {
       v4d d_new[3];
-      dir_from_cos_phi(s.d, hg_sample_cos(g, s.u1, live), s.u2, d_new);
+      v4d cos_theta = delta ? hg_sample_cos(g, s.u1, live) : hg_sample_cos_one_g(grid->voxel[0].g, small_g, s.u1);
+      dir_from_cos_phi(s.d, cos_theta, s.u2, d_new);
       for (int a = 0; a < 3; ++a) s.d[a] = pick(live, d_new[a], s.d[a]);
     }
     v4m low = live & (s.w < splat(tr->roulette_weight));
@@ -336,4 +354,14 @@ void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
     add_finished(tr, plan, &s, tally);
   }
   add_finished(tr, plan, &s, tally);
+}
+
+HV_TARGET_CLONES_X86_64_V3
+void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, uint32_t stream,
+                    uint64_t first, uint64_t end, hv_tally_t *tally) {
+  if (tr->grid->uniform) {
+    trace_lanes(tr, plan, seed, stream, first, end, tally, false);
+  } else {
+    trace_lanes(tr, plan, seed, stream, first, end, tally, true);
+  }
 }
