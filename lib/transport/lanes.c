@@ -33,10 +33,10 @@ enum {
   RING = 64
 };
 
-static inline v4d splat(double x) { return (v4d){x, x, x, x}; }
-static inline v4d pick(v4m m, v4d a, v4d b) { return (v4d)(((v4m)a & m) | ((v4m)b & ~m)); } /* m ? a : b */
-static inline v4d keep(v4m m, v4d a) { return (v4d)((v4m)a & m); }                         /* m ? a : +0 */
-static inline int any(v4m m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
+HV_ALWAYS_INLINE static inline v4d splat(double x) { return (v4d){x, x, x, x}; }
+HV_ALWAYS_INLINE static inline v4d pick(v4m m, v4d a, v4d b) { return (v4d)(((v4m)a & m) | ((v4m)b & ~m)); } /* m ? a : b */
+HV_ALWAYS_INLINE static inline v4d keep(v4m m, v4d a) { return (v4d)((v4m)a & m); }                         /* m ? a : +0 */
+HV_ALWAYS_INLINE static inline int any(v4m m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
 
 /* sqrt lane by lane: one vsqrtpd where math-errno is off (this file). */
 HV_ALWAYS_INLINE static inline v4d vsqrt(v4d x) {
@@ -116,6 +116,7 @@ typedef struct record {
   hetinv_face_t face;
   int32_t scatterings;
   bool entered, exited, was_truncated, finished;
+  hv_path_log_t log; /* gradient passes: the photon's score log */
 } record_t;
 
 typedef struct lanes {
@@ -162,7 +163,10 @@ static bool launch(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, 
                    int l) {
   uint64_t n = s->next++;
   record_t *rec = &s->ring[n % RING];
+  hv_path_log_t log = rec->log; /* its entries' room is kept */
   *rec = (record_t){.finished = false};
+  rec->log = log;
+  hv_path_log_reset(&rec->log);
   s->rng[l] = hv_rng_init(seed, plan->key, n, stream);
   hv_ray_t r;
   double w;
@@ -183,13 +187,15 @@ static bool launch(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, 
 }
 
 /* Lane l's flight reached the boundary: as the scalar loop, to the box's
- * face, then reflected (the lane flies on) or gone (recorded). */
-static void at_boundary(const hv_grid_t *grid, lanes_t *s, int l) {
+ * face (logged whole in a gradient pass), then reflected (the lane flies
+ * on) or gone (recorded). */
+static void at_boundary(const hv_grid_t *grid, lanes_t *s, int l, bool grad) {
   hv_ray_t r;
   lane_ray(s, l, &r);
-  double dist, cos_t, eta;
+  double dist, cos_t, eta, p0[3] = {r.p[0], r.p[1], r.p[2]};
   hetinv_face_t face;
   hv_ray_exit_box(grid, &r, &dist, &face);
+  if (grad) hv_path_log_add_ray(&s->ring[s->photon[l] % RING].log, p0, r.d, dist);
   if (grid->delta) hv_ray_locate(grid, &r); /* as hv_ray_march_delta: the last voxel inside */
   s->flying[l] = 0;
   double tau = s->tau[l] + dist;
@@ -209,27 +215,40 @@ static void at_boundary(const hv_grid_t *grid, lanes_t *s, int l) {
   finish(s, l);
 }
 
-/* Adds the finished photons that no unfinished one precedes. */
+/* Adds the finished photons that no unfinished one precedes. In a
+ * gradient pass each photon's log is the tally's path log while its exit
+ * scores, then applied if it scored, as hv_trace_photon does. */
 static void add_finished(const hv_tracer_t *tr, const hv_plan_t *plan, lanes_t *s, hv_tally_t *tally) {
   for (; s->added < s->next; ++s->added) {
-    const record_t *rec = &s->ring[s->added % RING];
+    record_t *rec = &s->ring[s->added % RING];
     if (!rec->finished) return;
     tally->stats[HV_STAT_SPECULAR] += rec->specular;
     if (!rec->entered) continue;
+    hv_grad_tally_t *gt = tally->grad;
     if (rec->exited) {
       const hv_exit_t leaving = {&rec->ray, rec->face, rec->cos_t, rec->eta, rec->w, rec->tau, rec->scatterings};
-      hv_photon_exit(tr, plan, &leaving, tally);
+      if (gt) {
+        hv_path_log_t own = gt->path;
+        gt->path = rec->log;
+        hv_photon_exit(tr, plan, &leaving, tally);
+        rec->log = gt->path;
+        gt->path = own;
+      } else {
+        hv_photon_exit(tr, plan, &leaving, tally);
+      }
     }
     if (rec->was_truncated) {
       tally->stats[HV_STAT_TRUNCATED] += rec->truncated;
       tally->stats[HV_STAT_TRUNCATED_PATHS] += 1.0;
     }
     tally->stats[HV_STAT_ABSORBED] += rec->absorbed;
+    if (gt && rec->log.scored) hv_grad_apply_log(gt, tr->grid, &rec->log);
   }
 }
 
 bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t *tally) {
-  return tally->grad == NULL && (tr->grid->uniform || tr->grid->delta) && plan->vertex_count == 0;
+  return (tally->grad == NULL || tally->grad->jvp.tangents == 0) && (tr->grid->uniform || tr->grid->delta) &&
+         plan->vertex_count == 0;
 }
 
 /* Lanes whose tentative collision at q is kept (delta tracking): the
@@ -272,7 +291,7 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t
  * tentative one (x = depth/σt), so no lane is ever left mid-flight. */
 HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
                                                 uint32_t stream, uint64_t first, uint64_t end, hv_tally_t *tally,
-                                                const bool delta) {
+                                                const bool delta, const bool grad) {
   const hv_grid_t *grid = tr->grid;
   const double step = delta ? grid->inv_majorant : grid->inv_sigma_t;
   const bool small_g = fabs(grid->voxel[0].g) < 1.0 / 3.0; /* uniform grids only */
@@ -281,6 +300,9 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
   lanes_t s;
   s.active = 0;
   s.next = s.added = first;
+  for (int i = 0; i < RING; ++i) {
+    s.ring[i].log = (hv_path_log_t){.ctx = grad ? tally->grad->path.ctx : NULL};
+  }
   for (;;) {
     for (int l = 0; l < LANES; ++l) {
       while (!(s.active >> l & 1u) && s.next < end && s.next - s.added < RING) {
@@ -310,10 +332,17 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
     v4m out = act & ~in;
     if (any(out)) {
       for (int l = 0; l < LANES; ++l) {
-        if (out[l]) at_boundary(grid, &s, l);
+        if (out[l]) at_boundary(grid, &s, l, grad);
       }
     }
     v4m hit = delta ? keep_tentative(tr, &s, in, q, &albedo, &g) : in;
+    if (grad && any(hit)) { /* the flight, whole: split into voxels if the path scores */
+      for (int l = 0; l < LANES; ++l) {
+        if (!hit[l]) continue;
+        const double p0[3] = {s.p[0][l], s.p[1][l], s.p[2][l]}, d[3] = {s.d[0][l], s.d[1][l], s.d[2][l]};
+        hv_path_log_add_ray(&s.ring[s.photon[l] % RING].log, p0, d, s.x[l]);
+      }
+    }
     for (int a = 0; a < 3; ++a) s.p[a] = pick(hit, q[a], s.p[a]);
     s.tau = s.tau + keep(hit, s.x); /* tau + 0 is tau */
     if (delta) s.flying &= ~hit;
@@ -331,6 +360,17 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
       v4d cos_theta = delta ? hg_sample_cos(g, s.u1, live) : hg_sample_cos_one_g(grid->voxel[0].g, small_g, s.u1);
       dir_from_cos_phi(s.d, cos_theta, s.u2, d_new);
       for (int a = 0; a < 3; ++a) s.d[a] = pick(live, d_new[a], s.d[a]);
+      for (int l = 0; grad && l < LANES; ++l) { /* the vertex's σs and phase scores */
+        if (!live[l]) continue;
+        hv_path_log_t *log = &s.ring[s.photon[l] % RING].log;
+        hv_path_log_set_ray_scatter(log);
+        if (delta) {
+          hv_path_log_add(log, HV_LOG_PHASE, s.at[l].k, cos_theta[l]);
+        } else {
+          const double p[3] = {s.p[0][l], s.p[1][l], s.p[2][l]};
+          hv_path_log_add_at(log, HV_LOG_PHASE, p, cos_theta[l]); /* voxel found when applied */
+        }
+      }
     }
     v4m low = live & (s.w < splat(tr->roulette_weight));
     if (any(ended | truncated | low)) {
@@ -354,14 +394,18 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
     add_finished(tr, plan, &s, tally);
   }
   add_finished(tr, plan, &s, tally);
+  for (int i = 0; grad && i < RING; ++i) {
+    if (s.ring[i].log.out_of_memory) tally->grad->path.out_of_memory = true; /* reported after the pass */
+    hv_path_log_release(&s.ring[i].log);
+  }
 }
 
 HV_TARGET_CLONES_X86_64_V3
 void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, uint32_t stream,
                     uint64_t first, uint64_t end, hv_tally_t *tally) {
-  if (tr->grid->uniform) {
-    trace_lanes(tr, plan, seed, stream, first, end, tally, false);
-  } else {
-    trace_lanes(tr, plan, seed, stream, first, end, tally, true);
-  }
+  bool uniform = tr->grid->uniform, grad = tally->grad != NULL;
+  if (uniform && !grad) trace_lanes(tr, plan, seed, stream, first, end, tally, false, false);
+  if (!uniform && !grad) trace_lanes(tr, plan, seed, stream, first, end, tally, true, false);
+  if (uniform && grad) trace_lanes(tr, plan, seed, stream, first, end, tally, false, true);
+  if (!uniform && grad) trace_lanes(tr, plan, seed, stream, first, end, tally, true, true);
 }

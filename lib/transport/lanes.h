@@ -1,5 +1,5 @@
-/* Forward photons of a uniform or delta-tracked grid, four at a time in
- * SIMD lanes.
+/* Photons of a uniform or delta-tracked grid, four at a time in SIMD
+ * lanes, in forward and gradient passes.
  *
  * The scalar loop (tracer.c) is one photon's chain of dependent steps: a
  * free flight, then the phase function's division, square root and
@@ -8,9 +8,10 @@
  * follows its photon exactly as hv_trace_photon would, on the photon's own
  * stream, with the same arithmetic in the same order; exits, Fresnel and
  * Russian roulette leave the vectors for scalar code (photon.h), and what
- * each photon adds to the tally is kept aside and added in photon order.
- * So a tally holds bitwise what tracing the photons one after another
- * gives: the lanes change speed, not results. */
+ * each photon adds to the tally is kept aside and added in photon order
+ * (in a gradient pass with its score log, applied then). So a tally holds
+ * bitwise what tracing the photons one after another gives: the lanes
+ * change speed, not results. */
 #ifndef HV_LANES_H
 #define HV_LANES_H
 
@@ -20,9 +21,9 @@
 #include "transport/tracer.h"
 
 /* Whether hv_trace_lanes can trace plan's photons into tally: a forward
- * tally (no gradient), a grid that is uniform or delta-tracked (not
- * stepped: the lanes do not walk voxel faces), and a plan without vertex
- * sensors (its sensors score exits only). */
+ * or gradient tally (not the tangent mode of J·v), a grid that is uniform
+ * or delta-tracked (not stepped: the lanes do not walk voxel faces), and a
+ * plan without vertex sensors (its sensors score exits only). */
 bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t *tally);
 
 /* Photons first ... end - 1 of plan's emitter, photon p on the stream

@@ -9,6 +9,7 @@
  * tentative collisions kept and dropped, lanes with either form at once).
  * The photon range starts off zero and is longer than the lanes' record
  * ring, so lanes wait for a long path and refill out of order. */
+#include <math.h>
 #include <string.h>
 
 #include "test_support.h"
@@ -21,7 +22,7 @@
 #include "transport/plan.h"
 #include "transport/tracer.h"
 
-enum { BINS = 5, VALUES = 2 * BINS };
+enum { BINS = 5, VALUES = 2 * BINS, VOXELS = 4 * 4 * 2 };
 
 typedef struct medium_case {
   const char *name;
@@ -140,6 +141,65 @@ static void lanes_leave_the_scalar_loops_tally_bit_for_bit(void **state) {
   }
 }
 
+/* A gradient tally: every voxel free, a cotangent per value. */
+typedef struct grad_tally {
+  double values[VALUES], cotangent[VALUES], grad[3 * VOXELS];
+  uint8_t touched[VOXELS];
+  int64_t touched_list[VOXELS];
+  hv_grad_tally_t gt;
+  hv_tally_t tally;
+} grad_tally_t;
+
+static void grad_tally_init(grad_tally_t *g, const hetinv_context_t *ctx) {
+  memset(g, 0, sizeof *g);
+  for (int i = 0; i < VALUES; ++i) g->cotangent[i] = 1.0 + 0.25 * i;
+  g->gt = (hv_grad_tally_t){.cotangent = g->cotangent, .grad = g->grad, .voxels = VOXELS, .touched = g->touched,
+                            .touched_list = g->touched_list};
+  g->gt.path.ctx = g->gt.chain.ctx = ctx;
+  g->tally = (hv_tally_t){.values = g->values, .grad = &g->gt};
+}
+
+/* The gradient pass too: each photon's score log is the tally's while its
+ * exit scores, and is applied in photon order, so the voxel gradient (and
+ * the order voxels were first touched in) is bitwise the scalar loop's. */
+static void lanes_leave_the_scalar_loops_gradient_bit_for_bit(void **state) {
+  (void)state;
+  const uint64_t seed = 99, first = 5, end = 5 + 1501;
+  for (size_t j = 0; j < 2 * sizeof CASES / sizeof CASES[0]; ++j) {
+    size_t i = j / 2;
+    field_t field = j % 2 ? VARIED : UNIFORM;
+    scene_t s;
+    scene_make(&s, &CASES[i], field);
+    const hv_plan_t *plan = &s.plans.plan[0];
+    grad_tally_t *scalar = test_malloc(sizeof *scalar), *lanes = test_malloc(sizeof *lanes);
+    grad_tally_init(scalar, s.ctx);
+    grad_tally_init(lanes, s.ctx);
+    if (!hv_lanes_fit(&s.tracer, plan, &lanes->tally)) { /* a vacuum of varied g */
+      assert_true(field == VARIED && !s.grid.delta);
+    } else {
+      for (uint64_t p = first; p < end; ++p) {
+        hv_rng_t rng = hv_rng_init(seed, plan->key, p, 0);
+        hv_trace_photon(&s.tracer, plan, &rng, &scalar->tally);
+      }
+      hv_trace_lanes(&s.tracer, plan, seed, 0, first, end, &lanes->tally);
+      assert_false(scalar->gt.path.out_of_memory || lanes->gt.path.out_of_memory);
+      assert_memory_equal(scalar->grad, lanes->grad, sizeof scalar->grad);
+      assert_int_equal(scalar->gt.touched_count, lanes->gt.touched_count);
+      assert_memory_equal(scalar->touched_list, lanes->touched_list,
+                          scalar->gt.touched_count * sizeof scalar->touched_list[0]);
+      assert_memory_equal(scalar->tally.stats, lanes->tally.stats, sizeof scalar->tally.stats);
+      double norm = 0.0;
+      for (int k = 0; k < 3 * VOXELS; ++k) norm += fabs(scalar->grad[k]);
+      assert_true(norm > 0.0 || CASES[i].sigma_s == 0.0 || CASES[i].sigma_a + CASES[i].sigma_s == 0.0);
+    }
+    hv_path_log_release(&scalar->gt.path);
+    hv_path_log_release(&lanes->gt.path);
+    test_free(scalar);
+    test_free(lanes);
+    scene_release(&s);
+  }
+}
+
 /* Each case exercises what it is named for, or the comparison above
  * proves less than it claims. */
 static void the_cases_reach_the_paths_they_are_named_for(void **state) {
@@ -161,7 +221,7 @@ static void the_cases_reach_the_paths_they_are_named_for(void **state) {
   assert_true(escaped_far[5] > 1999.0);  /* a vacuum: every photon crosses (ideal beam, weight 1) */
 }
 
-static void only_forward_tallies_of_uniform_grids_without_vertex_sensors_fit(void **state) {
+static void only_uniform_or_delta_grids_without_vertex_sensors_or_tangents_fit(void **state) {
   (void)state;
   scene_t s;
   scene_make(&s, &CASES[0], DENSE);
@@ -176,6 +236,8 @@ static void only_forward_tallies_of_uniform_grids_without_vertex_sensors_fit(voi
   scene_make(&s, &CASES[0], UNIFORM);
   hv_grad_tally_t gt = {0};
   hv_tally_t g = {.grad = &gt};
+  assert_true(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &g));
+  gt.jvp.tangents = 2; /* J·v: not in lanes */
   assert_false(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &g));
   assert_true(hv_lanes_fit(&s.tracer, &s.plans.plan[0], &t));
   /* A camera scores next-event connections at every vertex. */
@@ -197,8 +259,9 @@ static void only_forward_tallies_of_uniform_grids_without_vertex_sensors_fit(voi
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(lanes_leave_the_scalar_loops_tally_bit_for_bit),
+      cmocka_unit_test(lanes_leave_the_scalar_loops_gradient_bit_for_bit),
       cmocka_unit_test(the_cases_reach_the_paths_they_are_named_for),
-      cmocka_unit_test(only_forward_tallies_of_uniform_grids_without_vertex_sensors_fit),
+      cmocka_unit_test(only_uniform_or_delta_grids_without_vertex_sensors_or_tangents_fit),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
