@@ -54,16 +54,21 @@ static inline double hv_hg_cdf(double g, double cos_theta) {
  *   (-2a + g(a²+3) - 2g²a + g³(a²-1)) / (2d²),
  * whose error grows as ~ε/(1-|g|)² instead. Each is used where it is the
  * better: the error in cosθ stays within a few ε for every g. */
+/* The two forms, written once for doubles and for the SIMD lanes'
+ * vectors of doubles (transport/lanes.c), which must give the same bits:
+ * u may be either, g a double or a vector. */
+#define HV_HG_COS_SMALL_G(g, u) \
+  ((-2.0 * (1.0 - 2.0 * (u)) + (g) * ((1.0 - 2.0 * (u)) * (1.0 - 2.0 * (u)) + 3.0 - \
+    (g) * (2.0 * (1.0 - 2.0 * (u)) - (g) * ((1.0 - 2.0 * (u)) * (1.0 - 2.0 * (u)) - 1.0)))) / \
+   (2.0 * (1.0 - (g) * (1.0 - 2.0 * (u))) * (1.0 - (g) * (1.0 - 2.0 * (u)))))
+/* (1 + g² - s²)/(2g) with s = A/D, over one division. */
+#define HV_HG_COS_LARGE_G(g, u) \
+  (((1.0 + (g) * (g)) * ((1.0 - (g) + 2.0 * (g) * (u)) * (1.0 - (g) + 2.0 * (g) * (u))) - \
+    ((1.0 - (g)) * (1.0 + (g))) * ((1.0 - (g)) * (1.0 + (g)))) / \
+   (2.0 * (g) * ((1.0 - (g) + 2.0 * (g) * (u)) * (1.0 - (g) + 2.0 * (g) * (u)))))
+
 static inline double hv_hg_sample_cos(double g, double u) {
-  double c;
-  if (fabs(g) < 1.0 / 3.0) {
-    double a = 1.0 - 2.0 * u, d = 1.0 - g * a;
-    c = (-2.0 * a + g * (a * a + 3.0 - g * (2.0 * a - g * (a * a - 1.0)))) / (2.0 * d * d);
-  } else {
-    /* (1 + g² - s²)/(2g) with s = A/D, over one division. */
-    double A = (1.0 - g) * (1.0 + g), D = 1.0 - g + 2.0 * g * u, D2 = D * D;
-    c = ((1.0 + g * g) * D2 - A * A) / (2.0 * g * D2);
-  }
+  double c = fabs(g) < 1.0 / 3.0 ? HV_HG_COS_SMALL_G(g, u) : HV_HG_COS_LARGE_G(g, u);
   return c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c);
 }
 
@@ -83,18 +88,24 @@ static inline void hv_onb(const double n[3], double t[3], double b[3]) {
   b[2] = -n[1];
 }
 
-/* sin and cos of 2π·u for u ∈ [0, 1): quadrant reduction (exact) and
- * Taylor polynomials on [-π/4, π/4] (error < 1e-16). */
+/* Taylor polynomials of sin f and cos f on [-π/4, π/4] (error < 1e-16),
+ * f2 = f²; for doubles and for the lanes' vectors alike. */
+#define HV_SIN_POLY(f, f2) \
+  ((f) + (f) * (f2) * (-1.0 / 6 + (f2) * (1.0 / 120 + (f2) * (-1.0 / 5040 + (f2) * (1.0 / 362880 + \
+   (f2) * (-1.0 / 39916800 + (f2) * (1.0 / 6227020800 + (f2) * (-1.0 / 1307674368000))))))))
+#define HV_COS_POLY(f2) \
+  (1.0 + (f2) * (-0.5 + (f2) * (1.0 / 24 + (f2) * (-1.0 / 720 + (f2) * (1.0 / 40320 + \
+   (f2) * (-1.0 / 3628800 + (f2) * (1.0 / 479001600 + (f2) * (-1.0 / 87178291200 + \
+   (f2) * (1.0 / 20922789888000)))))))))
+
+/* sin and cos of 2π·u for u ∈ [0, 1): quadrant reduction (exact) and the
+ * polynomials above. */
 static inline void hv_sincos_2pi(double u, double *s, double *c) {
   double x = 4.0 * u;
   int iq = (int)(x + 0.5); /* x >= 0: truncation is floor, without a libm call */
   double f = (x - (double)iq) * 1.57079632679489661923;
   double f2 = f * f;
-  double sp = f + f * f2 * (-1.0 / 6 + f2 * (1.0 / 120 + f2 * (-1.0 / 5040 + f2 * (1.0 / 362880 +
-              f2 * (-1.0 / 39916800 + f2 * (1.0 / 6227020800 + f2 * (-1.0 / 1307674368000)))))));
-  double cp = 1.0 + f2 * (-0.5 + f2 * (1.0 / 24 + f2 * (-1.0 / 720 + f2 * (1.0 / 40320 +
-              f2 * (-1.0 / 3628800 + f2 * (1.0 / 479001600 + f2 * (-1.0 / 87178291200 +
-              f2 * (1.0 / 20922789888000))))))));
+  double sp = HV_SIN_POLY(f, f2), cp = HV_COS_POLY(f2);
   /* The quadrant is a coin flip per scattering: selects by masks, not
    * branches (as branches they were 80 % of A1's mispredictions). */
   uint32_t q = (uint32_t)iq & 3u, odd = q & 1u;

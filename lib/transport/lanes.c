@@ -48,15 +48,7 @@ HV_ALWAYS_INLINE static inline v4d vsqrt(v4d x) {
 /* hv_hg_sample_cos on four lanes with one g (a uniform grid's); `small`
  * is |g| < 1/3, which picks the form, as there. */
 HV_ALWAYS_INLINE static inline v4d hg_sample_cos_one_g(double g, bool small, v4d u) {
-  v4d c;
-  if (small) {
-    v4d a = 1.0 - 2.0 * u, d = 1.0 - g * a;
-    c = (-2.0 * a + g * (a * a + 3.0 - g * (2.0 * a - g * (a * a - 1.0)))) / (2.0 * d * d);
-  } else {
-    double A = (1.0 - g) * (1.0 + g);
-    v4d D = 1.0 - g + 2.0 * g * u, D2 = D * D;
-    c = ((1.0 + g * g) * D2 - A * A) / (2.0 * g * D2);
-  }
+  v4d c = small ? HV_HG_COS_SMALL_G(g, u) : HV_HG_COS_LARGE_G(g, u);
   v4d one = splat(1.0);
   return pick(c < -one, -one, pick(c > one, one, c));
 }
@@ -68,15 +60,8 @@ HV_ALWAYS_INLINE static inline v4d hg_sample_cos(v4d g, v4d u, v4m need) {
   const v4d one = splat(1.0);
   v4m small = (v4d)((v4u)g & ~(v4u)splat(-0.0)) < splat(1.0 / 3.0); /* |g| < 1/3 */
   v4d c = splat(0.0);
-  if (any(need & small)) {
-    v4d a = 1.0 - 2.0 * u, d = 1.0 - g * a;
-    c = (-2.0 * a + g * (a * a + 3.0 - g * (2.0 * a - g * (a * a - 1.0)))) / (2.0 * d * d);
-  }
-  if (any(need & ~small)) {
-    v4d A = (1.0 - g) * (1.0 + g);
-    v4d D = 1.0 - g + 2.0 * g * u, D2 = D * D;
-    c = pick(small, c, ((1.0 + g * g) * D2 - A * A) / (2.0 * g * D2));
-  }
+  if (any(need & small)) c = HV_HG_COS_SMALL_G(g, u);
+  if (any(need & ~small)) c = pick(small, c, HV_HG_COS_LARGE_G(g, u));
   return pick(c < -one, -one, pick(c > one, one, c));
 }
 
@@ -95,11 +80,7 @@ HV_ALWAYS_INLINE static inline void dir_from_cos_phi(const v4d w[3], v4d cos_the
   v4i iq = __builtin_convertvector(x + 0.5, v4i); /* truncation, as (int) */
   v4d f = (x - __builtin_convertvector(iq, v4d)) * 1.57079632679489661923;
   v4d f2 = f * f;
-  v4d sp = f + f * f2 * (-1.0 / 6 + f2 * (1.0 / 120 + f2 * (-1.0 / 5040 + f2 * (1.0 / 362880 +
-           f2 * (-1.0 / 39916800 + f2 * (1.0 / 6227020800 + f2 * (-1.0 / 1307674368000)))))));
-  v4d cp = 1.0 + f2 * (-0.5 + f2 * (1.0 / 24 + f2 * (-1.0 / 720 + f2 * (1.0 / 40320 +
-           f2 * (-1.0 / 3628800 + f2 * (1.0 / 479001600 + f2 * (-1.0 / 87178291200 +
-           f2 * (1.0 / 20922789888000))))))));
+  v4d sp = HV_SIN_POLY(f, f2), cp = HV_COS_POLY(f2);
   v4u q = __builtin_convertvector(iq & 3, v4u);
   v4m odd = (v4m)-(q & 1);
   v4d sphi = (v4d)((v4u)pick(odd, cp, sp) ^ ((q >> 1) << 63)); /* hv_negate_if */
