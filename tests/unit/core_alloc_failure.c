@@ -455,6 +455,55 @@ failed:
   return done;
 }
 
+/* A render and a gradient whose sensors score exits only, on a uniform and
+ * on a delta-tracked grid: the passes run in SIMD lanes (transport/lanes.h),
+ * whose score logs wait in a ring and are allocated as paths grow. */
+static bool scenario_lanes(void) {
+  bool done = false;
+  hetinv_context_t *ctx = NULL;
+  hetinv_medium_t *medium[2] = {NULL, NULL};
+  hetinv_emitter_t *beam[2] = {NULL, NULL};
+  hetinv_sensor_t *transmit[2] = {NULL, NULL};
+  hetinv_pathlength_t *steady = NULL;
+  hetinv_measurements_t *set[2] = {NULL, NULL};
+  hetinv_estimator_t *est = NULL;
+  hetinv_param_map_t *ident[2] = {NULL, NULL};
+  double value = 0, cot = 1, grad[3 * 8];
+  STEP_CONTEXT(ctx);
+  STEP(hetinv_pathlength_create_steady(ctx, &steady));
+  STEP(hetinv_estimator_create(ctx, &est));
+  STEP(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, 60));
+  STEP(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
+  for (int v = 0; v < 2; ++v) { /* v = 1: every voxel different, delta tracking */
+    STEP(hetinv_medium_create(ctx, (double[]){0, 0, 0}, (double[]){1, 1, 1}, (int32_t[]){2, 2, 2}, &medium[v]));
+    STEP(hetinv_medium_fill(medium[v], 0.2, 8.0, 0.6));
+    for (int32_t i = 0; v == 1 && i < 8; ++i) {
+      STEP(hetinv_medium_set_voxel(medium[v], i % 2, (i / 2) % 2, i / 4, 0.2 + 0.05 * i, 8.0 - 0.5 * i, 0.6));
+    }
+    STEP(hetinv_medium_commit(medium[v]));
+    STEP(hetinv_emitter_create_ideal(medium[v], (double[]){0.5, 0.5, -1}, (double[]){0, 0, 1}, &beam[v]));
+    STEP(hetinv_sensor_create_hemispherical(medium[v], HETINV_FACE_Z_MAX, NULL, NULL, &transmit[v]));
+    STEP(hetinv_measurements_create(ctx, &set[v]));
+    STEP(hetinv_measurements_add(set[v], beam[v], transmit[v], steady, NULL));
+    STEP(hetinv_param_map_create_identity(medium[v], HETINV_FREE_ALL, &ident[v]));
+    STEP(hetinv_estimator_render(est, medium[v], set[v], &value, NULL, NULL, 1));
+    STEP(hetinv_estimator_gradient(est, medium[v], set[v], &cot, 1, ident[v], grad, NULL, 3 * 8));
+  }
+  DONE;
+failed:
+  for (int v = 0; v < 2; ++v) {
+    hetinv_param_map_destroy(&ident[v]);
+    hetinv_measurements_destroy(&set[v]);
+    hetinv_sensor_destroy(&transmit[v]);
+    hetinv_emitter_destroy(&beam[v]);
+    hetinv_medium_destroy(&medium[v]);
+  }
+  hetinv_estimator_destroy(&est);
+  hetinv_pathlength_destroy(&steady);
+  hetinv_context_destroy(&ctx);
+  return done;
+}
+
 /* Gradients: of a cotangent and of the loss, per voxel and through a coarse
  * map. */
 static bool scenario_gradient(void) {
@@ -852,6 +901,11 @@ static void gradients_fail_cleanly(void **state) {
   run_scenario("gradient", scenario_gradient);
 }
 
+static void passes_in_lanes_fail_cleanly(void **state) {
+  (void)state;
+  run_scenario("lanes", scenario_lanes);
+}
+
 static void an_optimizer_run_and_resume_fail_cleanly(void **state) {
   (void)state;
   run_scenario("optimizer", scenario_optimizer);
@@ -892,6 +946,7 @@ int main(void) {
       cmocka_unit_test(sampling_calls_fail_cleanly),
       cmocka_unit_test(a_render_fails_cleanly),
       cmocka_unit_test(gradients_fail_cleanly),
+      cmocka_unit_test(passes_in_lanes_fail_cleanly),
       cmocka_unit_test(an_optimizer_run_and_resume_fail_cleanly),
       cmocka_unit_test(layerwise_stages_fail_cleanly),
       cmocka_unit_test(two_thread_passes_fail_cleanly),
