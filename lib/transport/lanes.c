@@ -1,9 +1,7 @@
 #include "transport/lanes.h"
 
 #include <math.h>
-#include <string.h>
 
-#include "core/bits.h"
 #include "core/compiler.h"
 #include "transport/delta.h"
 #include "transport/photon.h"
@@ -92,11 +90,12 @@ HV_ALWAYS_INLINE static inline void dir_from_cos_phi(const v4d w[3], v4d cos_the
 /* What one photon adds to the tally, kept until every earlier photon's is
  * added (hv_trace_photon's order). */
 typedef struct record {
-  double specular, absorbed, cos_t, eta, w, tau, truncated;
+  double specular, absorbed, cos_t, eta, w, tau;
+  double truncated; /* the weight the scattering bound stopped (> 0), or 0 */
   hv_ray_t ray; /* where it left */
   hetinv_face_t face;
   int32_t scatterings;
-  bool entered, exited, was_truncated, finished;
+  bool entered, exited, finished;
   hv_path_log_t log; /* gradient passes: the photon's score log */
 } record_t;
 
@@ -218,7 +217,7 @@ static void add_finished(const hv_tracer_t *tr, const hv_plan_t *plan, lanes_t *
         hv_photon_exit(tr, plan, &leaving, tally);
       }
     }
-    if (rec->was_truncated) {
+    if (rec->truncated > 0.0) {
       tally->stats[HV_STAT_TRUNCATED] += rec->truncated;
       tally->stats[HV_STAT_TRUNCATED_PATHS] += 1.0;
     }
@@ -267,7 +266,7 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t
   return kept;
 }
 
-/* The loop, inlined twice with `delta` a constant. A uniform grid
+/* The loop, inlined four times with `delta` and `grad` constants. A uniform grid
  * (!delta): every voxel is voxel 0, and a flight's collision is its first
  * tentative one (x = depth/σt), so no lane is ever left mid-flight. */
 HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
@@ -360,8 +359,7 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
           finish(&s, l); /* a purely absorbing voxel */
         } else if (truncated[l]) {
           record_t *rec = &s.ring[s.photon[l] % RING];
-          rec->was_truncated = true;
-          rec->truncated = s.w[l];
+          rec->truncated = s.w[l]; /* > 0: the lane was live */
           finish(&s, l);
         } else if (low[l]) {
           if (hv_rng_uniform(&s.rng[l]) >= tr->roulette_survival) {

@@ -6,7 +6,6 @@
 #include "core/compiler.h"
 #include "medium/phase.h"
 #include "transport/delta.h"
-#include "transport/lanes.h"
 #include "transport/photon.h"
 #include "transport/walk.h"
 
