@@ -105,7 +105,6 @@ typedef struct lanes {
    * collision, and the angles its block drew for the scattering there. */
   v4d p[3], d[3], w, tau, absorbed, x, u1, u2;
   v4m scatterings;
-  v4m flying; /* the lane's flight is drawn: x holds its next tentative collision */
   unsigned active; /* bit l: lane l holds a photon */
   uint64_t photon[LANES];
   hv_ray_t at[LANES]; /* each photon's voxel (v, k) as the scalar loop keeps it */
@@ -161,7 +160,6 @@ static bool launch(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, 
   s->tau[l] = 0.0;
   s->absorbed[l] = 0.0;
   s->scatterings[l] = 0;
-  s->flying[l] = 0;
   s->active |= 1u << l;
   return true;
 }
@@ -177,7 +175,6 @@ static void at_boundary(const hv_grid_t *grid, lanes_t *s, int l, bool grad) {
   hv_ray_exit_box(grid, &r, &dist, &face);
   if (grad) hv_path_log_add_ray(&s->ring[s->photon[l] % RING].log, p0, r.d, dist);
   if (grid->delta) hv_ray_locate(grid, &r); /* as hv_ray_march_delta: the last voxel inside */
-  s->flying[l] = 0;
   double tau = s->tau[l] + dist;
   s->tau[l] = tau;
   bool reflected = hv_photon_reflects(grid, &s->rng[l], &r, face, &cos_t, &eta);
@@ -231,16 +228,18 @@ bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t
          plan->vertex_count == 0;
 }
 
-/* Lanes whose tentative collision at q is kept (delta tracking): the
- * scalar loop's test, on each lane's stream; a lane whose collision is
- * dropped draws its next one. `in`: the lanes whose collision lies in the
- * box. The kept ones' voxels go to s->at, their records to albedo and g. */
-HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t *s, v4m in, const v4d q[3],
-                                                 v4d *albedo, v4d *g) {
+/* Delta tracking's flights, as hv_ray_march_delta runs them, on each
+ * lane's stream: a lane in `in` (its first tentative collision q lies in
+ * the box) tests collisions until one is kept (returned in the mask, q
+ * moved to it, its voxel in s->at, its record's albedo and g read) or the
+ * flight leaves the box (set in *out). Rejections are looped here, lane by
+ * lane, so that every round scatters every lane still in the box. The four
+ * lanes' first voxels are located and their loads started first: their
+ * cache misses (a large grid's byte and record) overlap. */
+HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t *s, v4m in, v4d q[3],
+                                                 v4m *out, v4d *albedo, v4d *g) {
   const hv_grid_t *grid = tr->grid;
   v4m kept = in;
-  /* Every lane's voxel first, and its loads started: the four lanes' cache
-   * misses (a large grid's record and byte) then overlap. */
   hv_ray_t at[LANES];
   for (int l = 0; l < LANES; ++l) {
     if (!in[l]) continue;
@@ -253,15 +252,24 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t
   }
   for (int l = 0; l < LANES; ++l) {
     if (!in[l]) continue;
-    const hv_ray_t c = at[l];
-    if (hv_delta_keep(grid, c.k, hv_rng_u32(&s->rng[l]))) {
-      s->at[l] = c;
-      (*albedo)[l] = grid->voxel[c.k].albedo;
-      (*g)[l] = grid->voxel[c.k].g;
-    } else {
-      kept[l] = 0;
-      s->x[l] += hv_exp_sample(tr->exp_table, hv_rng_u64(&s->rng[l]), &s->rng[l]) * grid->inv_majorant;
+    hv_ray_t c = at[l];
+    while (!hv_delta_keep(grid, c.k, hv_rng_u32(&s->rng[l]))) {
+      double x = s->x[l] + hv_exp_sample(tr->exp_table, hv_rng_u64(&s->rng[l]), &s->rng[l]) * grid->inv_majorant;
+      s->x[l] = x;
+      for (int a = 0; a < 3; ++a) c.p[a] = s->p[a][l] + x * s->d[a][l];
+      if (!((c.p[0] >= grid->lo[0]) & (c.p[0] <= grid->hi[0]) & (c.p[1] >= grid->lo[1]) &
+            (c.p[1] <= grid->hi[1]) & (c.p[2] >= grid->lo[2]) & (c.p[2] <= grid->hi[2]))) {
+        kept[l] = 0;
+        (*out)[l] = -1;
+        break;
+      }
+      hv_ray_locate_inside(grid, &c);
     }
+    if (!kept[l]) continue;
+    s->at[l] = c;
+    for (int a = 0; a < 3; ++a) q[a][l] = c.p[a];
+    (*albedo)[l] = grid->voxel[c.k].albedo;
+    (*g)[l] = grid->voxel[c.k].g;
   }
   return kept;
 }
@@ -295,12 +303,11 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
     v4m act;
     for (int l = 0; l < LANES; ++l) {
       act[l] = -(int64_t)(s.active >> l & 1u);
-      if (!act[l] || (delta && s.flying[l])) continue;
+      if (!act[l]) continue;
       philox4x32_ctr_t blk = hv_rng_block(&s.rng[l]);
       s.x[l] = hv_exp_sample(tr->exp_table, (uint64_t)blk.v[0] << 32 | blk.v[1], &s.rng[l]) * step;
       s.u1[l] = hv_unit_from_u32(blk.v[2]);
       s.u2[l] = hv_unit_from_u32(blk.v[3]);
-      if (delta) s.flying[l] = -1;
     }
     /* The (tentative) collision, if it lies in the box. */
     v4d q[3];
@@ -310,12 +317,12 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
       in &= (q[a] >= splat(grid->lo[a])) & (q[a] <= splat(grid->hi[a]));
     }
     v4m out = act & ~in;
+    v4m hit = delta ? keep_tentative(tr, &s, in, q, &out, &albedo, &g) : in;
     if (any(out)) {
       for (int l = 0; l < LANES; ++l) {
         if (out[l]) at_boundary(grid, &s, l, grad);
       }
     }
-    v4m hit = delta ? keep_tentative(tr, &s, in, q, &albedo, &g) : in;
     if (grad && any(hit)) { /* the flight, whole: split into voxels if the path scores */
       for (int l = 0; l < LANES; ++l) {
         if (!hit[l]) continue;
@@ -325,7 +332,6 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
     }
     for (int a = 0; a < 3; ++a) s.p[a] = pick(hit, q[a], s.p[a]);
     s.tau = s.tau + keep(hit, s.x); /* tau + 0 is tau */
-    if (delta) s.flying &= ~hit;
     /* A collision: the albedo, then the phase function. */
     s.scatterings -= hit;
     s.absorbed = s.absorbed + keep(hit, s.w * (1.0 - albedo));
