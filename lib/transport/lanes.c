@@ -348,14 +348,7 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
       for (int a = 0; a < 3; ++a) s.d[a] = pick(live, d_new[a], s.d[a]);
       for (int l = 0; grad && l < LANES; ++l) { /* the vertex's σs and phase scores */
         if (!live[l]) continue;
-        hv_path_log_t *log = &s.ring[s.photon[l] % RING].log;
-        hv_path_log_set_ray_scatter(log);
-        if (delta) {
-          hv_path_log_add(log, HV_LOG_PHASE, s.at[l].k, cos_theta[l]);
-        } else {
-          const double p[3] = {s.p[0][l], s.p[1][l], s.p[2][l]};
-          hv_path_log_add_at(log, HV_LOG_PHASE, p, cos_theta[l]); /* voxel found when applied */
-        }
+        hv_path_log_set_ray_vertex(&s.ring[s.photon[l] % RING].log, cos_theta[l]);
       }
     }
     v4m low = live & (s.w < splat(tr->roulette_weight));

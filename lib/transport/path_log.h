@@ -40,6 +40,10 @@ typedef struct hv_log_entry {
     struct {
       double p[3], d[3], length;
       int scatter; /* 1: a scattering vertex ends it (its σs score), or 0 */
+      /* 1: that vertex's phase score too, at cos_theta (a PHASE entry
+       * folded in where no splat can come between: hv_path_log_set_ray_vertex) */
+      int phase;
+      double cos_theta;
     } ray;         /* RAY */
   } u;
 } hv_log_entry_t;
@@ -85,6 +89,7 @@ static inline void hv_path_log_add_ray(hv_path_log_t *log, const double p[3], co
   }
   e->u.ray.length = length;
   e->u.ray.scatter = 0;
+  e->u.ray.phase = 0;
 }
 
 /* A vertex entry whose voxel is found from its position only if needed. */
@@ -107,11 +112,32 @@ static inline void hv_path_log_set_ray_scatter(hv_path_log_t *log) {
   }
 }
 
+/* Marks the last RAY entry as ended by a scattering vertex that scattered
+ * at cosθ: it then carries the vertex's σs score and its phase score, as
+ * set_ray_scatter followed by a PHASE entry at the ray's end would, with
+ * one entry instead of two. Only where nothing can splat between the
+ * vertex and its scattering (no vertex sensor): both scores then have the
+ * ray's running total. The last entry is the ray (the caller logged it). */
+static inline void hv_path_log_set_ray_vertex(hv_path_log_t *log, double cos_theta) {
+  if (log->count > 0 && log->entries[log->count - 1].kind == HV_LOG_RAY) {
+    hv_log_entry_t *e = &log->entries[log->count - 1];
+    e->u.ray.scatter = 1;
+    e->u.ray.phase = 1;
+    e->u.ray.cos_theta = cos_theta;
+  }
+}
+
 /* The score of a SCATTER or PHASE entry at voxel k (the vertex's). */
 static inline double hv_log_vertex_score(const hv_grid_t *grid, const hv_log_entry_t *e, int64_t k) {
   if (e->kind == HV_LOG_SCATTER) return 1.0 / grid->sigma_s[k];
   const hv_phase_t phase = {HV_PHASE_HG, grid->voxel[k].g}; /* the tracer's phase at a vertex */
   return hv_phase_dlog_dg(phase, e->u.at.value);
+}
+/* The phase score a RAY entry carries (set_ray_vertex) at its end voxel k:
+ * hv_log_vertex_score's for the PHASE entry it stands for. */
+static inline double hv_log_ray_phase_score(const hv_grid_t *grid, const hv_log_entry_t *e, int64_t k) {
+  const hv_phase_t phase = {HV_PHASE_HG, grid->voxel[k].g};
+  return hv_phase_dlog_dg(phase, e->u.ray.cos_theta);
 }
 void hv_path_log_release(hv_path_log_t *log);
 

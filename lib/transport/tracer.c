@@ -37,6 +37,7 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
       extinction_visit_t x = {gt, w};
       hv_walk_log_ray(grid, e, &end, add_extinction_visit, &x);
       if (e->u.ray.scatter) hv_grad_add(gt, HETINV_PARAM_SIGMA_S, end.k, (1.0 / grid->sigma_s[end.k]) * w);
+      if (e->u.ray.phase) hv_grad_add(gt, HETINV_PARAM_G, end.k, hv_log_ray_phase_score(grid, e, end.k) * w);
       continue;
     }
     if (w == 0.0) continue;
@@ -126,9 +127,13 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
       tally->stats[HV_STAT_TRUNCATED_PATHS] += 1.0;
       break;
     }
-    if (plog) {
+    /* The flight just logged ends here: with no vertex sensor nothing
+     * splats before the phase is sampled, so the ray's entry carries the
+     * vertex's phase score too (set below). */
+    const bool vertex_in_ray = plog && (grid->uniform || delta) && plan->vertex_count == 0;
+    if (plog && !vertex_in_ray) {
       if (grid->uniform || delta) {
-        hv_path_log_set_ray_scatter(plog); /* the flight just logged */
+        hv_path_log_set_ray_scatter(plog);
       } else {
         hv_path_log_add(plog, HV_LOG_SCATTER, r.k, 0.0);
       }
@@ -143,7 +148,9 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
     double d_new[3];
     double cos_theta = hv_phase_sample(phase, r.d, hv_unit_from_u32(blk.v[2]),
                                        hv_unit_from_u32(blk.v[3]), d_new);
-    if (plog) {
+    if (vertex_in_ray) {
+      hv_path_log_set_ray_vertex(plog, cos_theta);
+    } else if (plog) {
       if (grid->uniform) {
         hv_path_log_add_at(plog, HV_LOG_PHASE, r.p, cos_theta); /* voxel found when applied */
       } else {
