@@ -274,9 +274,10 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t
   return kept;
 }
 
-/* The loop, inlined four times with `delta` and `grad` constants. A uniform grid
- * (!delta): every voxel is voxel 0, and a flight's collision is its first
- * tentative one (x = depth/σt), so no lane is ever left mid-flight. */
+/* The loop, inlined four times with `delta` and `grad` constants. Each
+ * round draws every lane a flight and ends it: at a collision, or at the
+ * box's face. A uniform grid (!delta): every voxel is voxel 0, and a
+ * flight's collision is its first tentative one (x = depth/σt). */
 HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed,
                                                 uint32_t stream, uint64_t first, uint64_t end, hv_tally_t *tally,
                                                 const bool delta, const bool grad) {
