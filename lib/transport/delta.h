@@ -52,8 +52,7 @@ HV_ALWAYS_INLINE static inline int hv_ray_march_delta(const hv_grid_t *g, hv_ray
   for (;;) {
     double q[3];
     for (int i = 0; i < 3; ++i) q[i] = r->p[i] + x * r->d[i];
-    if (!((q[0] >= g->lo[0]) & (q[0] <= g->hi[0]) & (q[1] >= g->lo[1]) & (q[1] <= g->hi[1]) &
-          (q[2] >= g->lo[2]) & (q[2] <= g->hi[2]))) {
+    if (!hv_grid_contains(g, q)) {
       hv_ray_exit_box(g, r, dist, face);
       hv_ray_locate(g, r); /* on the exit face, moving out: the last voxel inside */
       return 0;

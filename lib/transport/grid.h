@@ -88,6 +88,12 @@ size_t hv_grid_voxel_bytes(const hv_grid_t *g);
  * multiplication) and gets none. */
 hetinv_result_t hv_grid_build_axis_depths(hv_grid_t *grid, uint32_t faces);
 
+/* Whether q lies in the box, its faces included (no branch per axis). */
+static inline int hv_grid_contains(const hv_grid_t *g, const double q[3]) {
+  return (q[0] >= g->lo[0]) & (q[0] <= g->hi[0]) & (q[1] >= g->lo[1]) & (q[1] <= g->hi[1]) & (q[2] >= g->lo[2]) &
+         (q[2] <= g->hi[2]);
+}
+
 /* A ray being tracked: position, unit direction, and its voxel. */
 typedef struct hv_ray {
   double p[3], d[3];

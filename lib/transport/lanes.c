@@ -257,8 +257,7 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t
       double x = s->x[l] + hv_exp_sample(tr->exp_table, hv_rng_u64(&s->rng[l]), &s->rng[l]) * grid->inv_majorant;
       s->x[l] = x;
       for (int a = 0; a < 3; ++a) c.p[a] = s->p[a][l] + x * s->d[a][l];
-      if (!((c.p[0] >= grid->lo[0]) & (c.p[0] <= grid->hi[0]) & (c.p[1] >= grid->lo[1]) &
-            (c.p[1] <= grid->hi[1]) & (c.p[2] >= grid->lo[2]) & (c.p[2] <= grid->hi[2]))) {
+      if (!hv_grid_contains(grid, c.p)) {
         kept[l] = 0;
         (*out)[l] = -1;
         break;

@@ -68,7 +68,7 @@ static void catch_up(const hv_jvp_state_t *st, const hv_path_log_t *log, size_t 
       extinction_visit_t x = {st, run};
       hv_walk_log_ray(st->grid, e, end, add_extinction_visit, &x);
       if (e->u.ray.scatter) add_scaled(st, HETINV_PARAM_SIGMA_S, end->k, 1.0 / st->grid->sigma_s[end->k], run);
-      if (e->u.ray.phase) add_scaled(st, HETINV_PARAM_G, end->k, hv_log_ray_phase_score(st->grid, e, end->k), run);
+      if (e->u.ray.phase) add_scaled(st, HETINV_PARAM_G, end->k, hv_log_phase_score(st->grid, end->k, e->u.ray.cos_theta), run);
       continue;
     }
     int64_t k = e->u.at.voxel;

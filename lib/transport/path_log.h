@@ -127,17 +127,17 @@ static inline void hv_path_log_set_ray_vertex(hv_path_log_t *log, double cos_the
   }
 }
 
+/* ∂ log f_p(cosθ) / ∂g of a scattering at voxel k (the tracer's phase
+ * there). */
+static inline double hv_log_phase_score(const hv_grid_t *grid, int64_t k, double cos_theta) {
+  const hv_phase_t phase = {HV_PHASE_HG, grid->voxel[k].g};
+  return hv_phase_dlog_dg(phase, cos_theta);
+}
+
 /* The score of a SCATTER or PHASE entry at voxel k (the vertex's). */
 static inline double hv_log_vertex_score(const hv_grid_t *grid, const hv_log_entry_t *e, int64_t k) {
   if (e->kind == HV_LOG_SCATTER) return 1.0 / grid->sigma_s[k];
-  const hv_phase_t phase = {HV_PHASE_HG, grid->voxel[k].g}; /* the tracer's phase at a vertex */
-  return hv_phase_dlog_dg(phase, e->u.at.value);
-}
-/* The phase score a RAY entry carries (set_ray_vertex) at its end voxel k:
- * hv_log_vertex_score's for the PHASE entry it stands for. */
-static inline double hv_log_ray_phase_score(const hv_grid_t *grid, const hv_log_entry_t *e, int64_t k) {
-  const hv_phase_t phase = {HV_PHASE_HG, grid->voxel[k].g};
-  return hv_phase_dlog_dg(phase, e->u.ray.cos_theta);
+  return hv_log_phase_score(grid, k, e->u.at.value);
 }
 void hv_path_log_release(hv_path_log_t *log);
 

@@ -37,7 +37,7 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
       extinction_visit_t x = {gt, w};
       hv_walk_log_ray(grid, e, &end, add_extinction_visit, &x);
       if (e->u.ray.scatter) hv_grad_add(gt, HETINV_PARAM_SIGMA_S, end.k, (1.0 / grid->sigma_s[end.k]) * w);
-      if (e->u.ray.phase) hv_grad_add(gt, HETINV_PARAM_G, end.k, hv_log_ray_phase_score(grid, e, end.k) * w);
+      if (e->u.ray.phase) hv_grad_add(gt, HETINV_PARAM_G, end.k, hv_log_phase_score(grid, end.k, e->u.ray.cos_theta) * w);
       continue;
     }
     if (w == 0.0) continue;
@@ -89,6 +89,10 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
    * (the built-in Fig. 4 scene's gradient pass: 6 % faster stepped); with
    * exit sensors only, fewer do (A1-het's Rd: 77 %, 5 % faster by delta). */
   const bool delta = grid->delta && (!grad || plan->vertex_count == 0);
+  /* A logged flight (uniform or delta) that ends at a vertex: with no
+   * vertex sensor nothing splats between the vertex and its scattering, so
+   * the flight's entry carries the vertex's phase score too. */
+  const bool vertex_in_ray = plog && (grid->uniform || delta) && plan->vertex_count == 0;
   double tau = 0.0, absorbed = 0.0;
   int32_t scatterings = 0;
   for (;;) {
@@ -127,10 +131,6 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
       tally->stats[HV_STAT_TRUNCATED_PATHS] += 1.0;
       break;
     }
-    /* The flight just logged ends here: with no vertex sensor nothing
-     * splats before the phase is sampled, so the ray's entry carries the
-     * vertex's phase score too (set below). */
-    const bool vertex_in_ray = plog && (grid->uniform || delta) && plan->vertex_count == 0;
     if (plog && !vertex_in_ray) {
       if (grid->uniform || delta) {
         hv_path_log_set_ray_scatter(plog);

@@ -7,12 +7,14 @@
  * and rays along the axes on voxel faces and edges (a pencil beam's first
  * flight); walks to the boundary along an axis by their optical-depth
  * table against the same rays walked; the uniform fast path against the
- * same grid stepped; and the split of a path's logged rays, each started
- * where the last one ended.
+ * same grid stepped; the split of a path's logged rays, each started
+ * where the last one ended; and a flight's entry carrying its vertex's
+ * phase score, applied as the two entries it replaces.
  * Runs in well under a second. */
 #include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "test_support.h"
 #include "tracking_reference.h"
@@ -20,6 +22,7 @@
 #include "medium/medium_internal.h"
 #include "sampling/geometry.h"
 #include "transport/grid.h"
+#include "transport/tracer.h"
 #include "transport/walk.h"
 
 enum { RAYS = 4000 };
@@ -386,6 +389,91 @@ static void continuous_log_rays_split_as_reference(void **state) {
   fixture_free(&f);
 }
 
+/* A gradient tally over every voxel of g. */
+typedef struct grad_arrays {
+  double grad[3 * NX * NY * NZ];
+  uint8_t touched[NX * NY * NZ];
+  int64_t touched_list[NX * NY * NZ];
+  hv_grad_tally_t gt;
+} grad_arrays_t;
+
+static void grad_arrays_init(grad_arrays_t *a) {
+  memset(a, 0, sizeof *a);
+  a->gt = (hv_grad_tally_t){.grad = a->grad, .voxels = NX * NY * NZ, .touched = a->touched,
+                            .touched_list = a->touched_list};
+}
+
+/* hv_path_log_set_ray_vertex folds a vertex's σs and phase scores into
+ * the flight that ends there. Applied, it must give bitwise what the two
+ * entries it replaces give (the flight marked by set_ray_scatter, then a
+ * PHASE entry at the vertex with the same running total): paths of
+ * straight flights ending inside a grid whose σa, σs and g differ per
+ * voxel, each path split from its first flight's located voxel on. */
+static void ray_vertex_entry_applies_as_its_two_entries(void **state) {
+  (void)state;
+  uint64_t seed = UINT64_C(0x13198a2e03707344);
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  hetinv_context_t *ctx;
+  hetinv_medium_t *medium;
+  assert_ok(hetinv_context_create(&init, &ctx));
+  const int32_t dims[3] = {NX, NY, NZ};
+  assert_ok(hetinv_medium_create(ctx, LO, HI, dims, &medium));
+  enum { N = NX * NY * NZ };
+  double sa[N], ss[N], gg[N];
+  for (int i = 0; i < N; ++i) {
+    sa[i] = 0.1 + 2.0 * uniform(&seed);
+    ss[i] = 0.1 + 8.0 * uniform(&seed);
+    gg[i] = -0.9 + 1.8 * uniform(&seed); /* both forms of the HG score */
+  }
+  assert_ok(hetinv_medium_set_grid(medium, HETINV_PARAM_SIGMA_A, sa, N));
+  assert_ok(hetinv_medium_set_grid(medium, HETINV_PARAM_SIGMA_S, ss, N));
+  assert_ok(hetinv_medium_set_grid(medium, HETINV_PARAM_G, gg, N));
+  assert_ok(hetinv_medium_commit(medium));
+  hv_grid_t g;
+  assert_ok(hv_grid_build(medium, &g));
+  grad_arrays_t *two = test_malloc(sizeof *two), *one = test_malloc(sizeof *one);
+  grad_arrays_init(two);
+  grad_arrays_init(one);
+  hv_path_log_t log_two = {.ctx = ctx}, log_one = {.ctx = ctx};
+  for (int path = 0; path < 300; ++path) {
+    hv_path_log_reset(&log_two);
+    hv_path_log_reset(&log_one);
+    double p[3], d[3];
+    for (int a = 0; a < 3; ++a) p[a] = LO[a] + (HI[a] - LO[a]) * uniform(&seed);
+    random_direction(&seed, d);
+    for (int flight = 0; flight < 30; ++flight) {
+      double length = uniform(&seed) * exit_distance(&g, p, d), cos_theta = 2.0 * uniform(&seed) - 1.0;
+      hv_path_log_add_ray(&log_two, p, d, length);
+      hv_path_log_add_ray(&log_one, p, d, length);
+      for (int a = 0; a < 3; ++a) p[a] += length * d[a];
+      hv_path_log_set_ray_scatter(&log_two);
+      hv_path_log_add_at(&log_two, HV_LOG_PHASE, p, cos_theta); /* the voxel the ray ended in */
+      hv_path_log_set_ray_vertex(&log_one, cos_theta);
+      random_direction(&seed, d);
+    }
+    assert_int_equal(log_one.count, 30);
+    assert_int_equal(log_two.count, 60);
+    log_two.cum = log_one.cum = 0.5 + uniform(&seed); /* the path's splat total */
+    log_two.scored = log_one.scored = true;
+    hv_grad_apply_log(&two->gt, &g, &log_two);
+    hv_grad_apply_log(&one->gt, &g, &log_one);
+  }
+  assert_false(log_two.out_of_memory || log_one.out_of_memory);
+  assert_memory_equal(two->grad, one->grad, sizeof two->grad);
+  assert_int_equal(two->gt.touched_count, one->gt.touched_count);
+  assert_memory_equal(two->touched_list, one->touched_list, two->gt.touched_count * sizeof two->touched_list[0]);
+  double g_norm = 0.0;
+  for (int k = 0; k < N; ++k) g_norm += fabs(one->grad[2 * N + k]);
+  assert_true(g_norm > 0.0); /* the phase scores were added */
+  hv_path_log_release(&log_two);
+  hv_path_log_release(&log_one);
+  test_free(two);
+  test_free(one);
+  hv_grid_release(&g);
+  hetinv_medium_destroy(&medium);
+  hetinv_context_destroy(&ctx);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(random_flights_match_reference),
@@ -394,6 +482,7 @@ int main(void) {
       cmocka_unit_test(axis_rays_to_boundary_match_walk),
       cmocka_unit_test(uniform_grid_matches_stepped),
       cmocka_unit_test(continuous_log_rays_split_as_reference),
+      cmocka_unit_test(ray_vertex_entry_applies_as_its_two_entries),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
