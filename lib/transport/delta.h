@@ -32,6 +32,18 @@ HV_ALWAYS_INLINE static inline void hv_ray_locate_inside(const hv_grid_t *g, hv_
   r->k = k;
 }
 
+/* hv_ray_locate_inside's voxel index alone, for a point q of the box
+ * (hv_grid_contains): q ≥ lo makes every coordinate's truncation ≥ 0, so
+ * only rounding at the far faces needs the clamp. */
+HV_ALWAYS_INLINE static inline int64_t hv_voxel_inside(const hv_grid_t *g, const double q[3]) {
+  int64_t k = 0;
+  for (int a = 0; a < 3; ++a) {
+    int32_t i = (int32_t)((q[a] - g->lo[a]) * g->inv_h[a]);
+    k += (int64_t)(i < g->n[a] ? i : g->n[a] - 1) * g->stride[a];
+  }
+  return k;
+}
+
 /* Keeps a tentative collision in voxel k for the draw b (u = b/2^32):
  * u·σ̄ < σt(k). With q = floor(256 σt/σ̄) (rounded), b >> 24 < q - 1 keeps
  * and b >> 24 > q drops with that test's outcome, from a byte; only the

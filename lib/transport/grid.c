@@ -44,15 +44,16 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
                                  .g = g[i]};
   }
   const hv_voxel_t *v0 = &out->voxel[0];
-  int uniform = 1;
+  int uniform_g = 1, uniform_rest = 1;
   out->inv_sigma_t = v0->inv_sigma_t;
-#pragma omp parallel for num_threads(medium->ctx->thread_count) schedule(static) reduction(&& : uniform) \
-    if (n >= HV_GRID_PARALLEL_VOXELS)
+#pragma omp parallel for num_threads(medium->ctx->thread_count) schedule(static) \
+    reduction(&& : uniform_g, uniform_rest) if (n >= HV_GRID_PARALLEL_VOXELS)
   for (size_t i = 1; i < n; ++i) {
-    uniform = uniform && out->voxel[i].sigma_t == v0->sigma_t && out->voxel[i].albedo == v0->albedo &&
-              out->voxel[i].g == v0->g;
+    uniform_g = uniform_g && out->voxel[i].g == v0->g;
+    uniform_rest = uniform_rest && out->voxel[i].sigma_t == v0->sigma_t && out->voxel[i].albedo == v0->albedo;
   }
-  out->uniform = uniform;
+  out->uniform = uniform_g && uniform_rest;
+  out->uniform_g = uniform_g;
   out->sigma_s = ss;
   int64_t stride = 1;
   double *face = out->face_storage;

@@ -42,6 +42,9 @@ typedef struct hv_grid {
    * pass then skip the voxel stepping (hv_ray_march_uniform). */
   int uniform;
   double inv_sigma_t;    /* uniform: 1/σt (inf for σt = 0) */
+  /* Every voxel has voxel[0]'s g (uniform or not): a scattering's phase
+   * sampling needs no per-voxel g, and the lanes keep its constants. */
+  int uniform_g;
   /* Every pass samples a non-uniform grid's free flights by delta tracking
    * against the majorant σ̄ = max σt when that is cheaper than stepping
    * voxel by voxel (grid.c: choose_tracking). Score passes log such a

@@ -107,7 +107,10 @@ typedef struct lanes {
   v4m scatterings;
   unsigned active; /* bit l: lane l holds a photon */
   uint64_t photon[LANES];
-  hv_ray_t at[LANES]; /* each photon's voxel (v, k) as the scalar loop keeps it */
+  /* Each photon's voxel (v, k) where the scalar loop's matters: from its
+   * launch or reflection; a delta lane's collisions leave it (at_boundary
+   * locates the exit again, as hv_ray_march_delta does). */
+  hv_ray_t at[LANES];
   hv_rng_t rng[LANES];
   record_t ring[RING]; /* photon n at n % RING */
   uint64_t next, added; /* the next photon to launch, and to add */
@@ -231,44 +234,44 @@ bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t
 /* Delta tracking's flights, as hv_ray_march_delta runs them, on each
  * lane's stream: a lane in `in` (its first tentative collision q lies in
  * the box) tests collisions until one is kept (returned in the mask, q
- * moved to it, its voxel in s->at, its record's albedo and g read) or the
- * flight leaves the box (set in *out). Rejections are looped here, lane by
- * lane, so that every round scatters every lane still in the box. The four
+ * moved to it, its record's albedo and g read) or the flight leaves the
+ * box (set in *out). Rejections are looped here, lane by lane, so that
+ * every round scatters every lane still in the box. Only the voxel index
+ * is tracked: s->at's voxel matters at the boundary alone, where
+ * at_boundary locates it again, as hv_ray_march_delta does. The four
  * lanes' first voxels are located and their loads started first: their
  * cache misses (a large grid's byte and record) overlap. */
 HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t *s, v4m in, v4d q[3],
                                                  v4m *out, v4d *albedo, v4d *g) {
   const hv_grid_t *grid = tr->grid;
   v4m kept = in;
-  hv_ray_t at[LANES];
+  int64_t first[LANES];
   for (int l = 0; l < LANES; ++l) {
     if (!in[l]) continue;
-    hv_ray_t *c = &at[l];
-    *c = s->at[l];
-    for (int a = 0; a < 3; ++a) c->p[a] = q[a][l];
-    hv_ray_locate_inside(grid, c);
-    HV_PREFETCH(&grid->sigma_t_q[c->k]);
-    HV_PREFETCH(&grid->voxel[c->k]);
+    const double c[3] = {q[0][l], q[1][l], q[2][l]};
+    first[l] = hv_voxel_inside(grid, c);
+    HV_PREFETCH(&grid->sigma_t_q[first[l]]);
+    HV_PREFETCH(&grid->voxel[first[l]]);
   }
   for (int l = 0; l < LANES; ++l) {
     if (!in[l]) continue;
-    hv_ray_t c = at[l];
-    while (!hv_delta_keep(grid, c.k, hv_rng_u32(&s->rng[l]))) {
+    int64_t k = first[l];
+    double c[3] = {q[0][l], q[1][l], q[2][l]};
+    while (!hv_delta_keep(grid, k, hv_rng_u32(&s->rng[l]))) {
       double x = s->x[l] + hv_exp_sample(tr->exp_table, hv_rng_u64(&s->rng[l]), &s->rng[l]) * grid->inv_majorant;
       s->x[l] = x;
-      for (int a = 0; a < 3; ++a) c.p[a] = s->p[a][l] + x * s->d[a][l];
-      if (!hv_grid_contains(grid, c.p)) {
+      for (int a = 0; a < 3; ++a) c[a] = s->p[a][l] + x * s->d[a][l];
+      if (!hv_grid_contains(grid, c)) {
         kept[l] = 0;
         (*out)[l] = -1;
         break;
       }
-      hv_ray_locate_inside(grid, &c);
+      k = hv_voxel_inside(grid, c);
     }
     if (!kept[l]) continue;
-    s->at[l] = c;
-    for (int a = 0; a < 3; ++a) q[a][l] = c.p[a];
-    (*albedo)[l] = grid->voxel[c.k].albedo;
-    (*g)[l] = grid->voxel[c.k].g;
+    for (int a = 0; a < 3; ++a) q[a][l] = c[a];
+    (*albedo)[l] = grid->voxel[k].albedo;
+    (*g)[l] = grid->voxel[k].g;
   }
   return kept;
 }
@@ -282,7 +285,7 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
                                                 const bool delta, const bool grad) {
   const hv_grid_t *grid = tr->grid;
   const double step = delta ? grid->inv_majorant : grid->inv_sigma_t;
-  const bool small_g = fabs(grid->voxel[0].g) < 1.0 / 3.0; /* uniform grids only */
+  const bool small_g = fabs(grid->voxel[0].g) < 1.0 / 3.0; /* grids of one g only */
   const v4d zero = splat(0.0);
   v4d albedo = splat(grid->voxel[0].albedo), g = splat(grid->voxel[0].g);
   lanes_t s;
@@ -343,7 +346,8 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
     }
     if (any(live)) {
       v4d d_new[3];
-      v4d cos_theta = delta ? hg_sample_cos(g, s.u1, live) : hg_sample_cos_one_g(grid->voxel[0].g, small_g, s.u1);
+      v4d cos_theta = delta && !grid->uniform_g ? hg_sample_cos(g, s.u1, live)
+                                                : hg_sample_cos_one_g(grid->voxel[0].g, small_g, s.u1);
       dir_from_cos_phi(s.d, cos_theta, s.u2, d_new);
       for (int a = 0; a < 3; ++a) s.d[a] = pick(live, d_new[a], s.d[a]);
       for (int l = 0; grad && l < LANES; ++l) { /* the vertex's σs and phase scores */

@@ -55,8 +55,12 @@ typedef struct scene {
 
 /* The voxels: all alike (a uniform grid), each different (delta tracking:
  * σa and σs within a factor 1.5 of the case's, g across both forms of the
- * inverse), or one dense voxel (stepping, which the lanes do not take). */
-typedef enum field { UNIFORM, VARIED, DENSE } field_t;
+ * inverse), the same with the case's g in every voxel (delta tracking
+ * whose phase sampling keeps one g), or one dense voxel (stepping, which
+ * the lanes do not take). */
+typedef enum field { UNIFORM, VARIED, VARIED_SIGMA, DENSE } field_t;
+enum { LANE_FIELDS = 3 }; /* the fields the lanes take: UNIFORM … VARIED_SIGMA */
+static const char *const FIELD_NAMES[] = {"uniform", "varied", "varied-sigma", "dense"};
 
 static void scene_make(scene_t *s, const medium_case_t *c, field_t field) {
   memset(s, 0, sizeof *s);
@@ -66,8 +70,9 @@ static void scene_make(scene_t *s, const medium_case_t *c, field_t field) {
                                  &s->medium));
   assert_ok(hetinv_medium_fill(s->medium, c->sigma_a, c->sigma_s, c->g));
   if (field == DENSE) assert_ok(hetinv_medium_set_voxel(s->medium, 1, 2, 1, 1000.0, c->sigma_s, c->g));
-  for (int32_t i = 0; field == VARIED && i < 4 * 4 * 2; ++i) {
-    double f = 0.75 + 0.5 * (double)((i * 7) % 11) / 10.0, g = (double)((i * 5) % 9) / 5.0 - 0.8;
+  for (int32_t i = 0; (field == VARIED || field == VARIED_SIGMA) && i < 4 * 4 * 2; ++i) {
+    double f = 0.75 + 0.5 * (double)((i * 7) % 11) / 10.0;
+    double g = field == VARIED ? (double)((i * 5) % 9) / 5.0 - 0.8 : c->g;
     assert_ok(hetinv_medium_set_voxel(s->medium, i % 4, (i / 4) % 4, i / 16, c->sigma_a * f, c->sigma_s / f, g));
   }
   assert_ok(hetinv_medium_set_ior(s->medium, c->eta, 1.0));
@@ -110,14 +115,15 @@ static void lanes_leave_the_scalar_loops_tally_bit_for_bit(void **state) {
   (void)state;
   const uint64_t seed = UINT64_C(0x1a2e5), first = 17, end = 17 + 3001;
   const uint32_t stream = 3;
-  for (size_t j = 0; j < 2 * sizeof CASES / sizeof CASES[0]; ++j) {
-    size_t i = j / 2;
-    field_t field = j % 2 ? VARIED : UNIFORM;
+  for (size_t j = 0; j < LANE_FIELDS * sizeof CASES / sizeof CASES[0]; ++j) {
+    size_t i = j / LANE_FIELDS;
+    field_t field = (field_t)(j % LANE_FIELDS);
     scene_t s;
     scene_make(&s, &CASES[i], field);
     assert_int_equal(s.plans.count, 1);
-    assert_true(field == VARIED || s.grid.uniform);
-    if (field == VARIED && !s.grid.delta) { /* a vacuum of varied g: nothing to track */
+    assert_true(field != UNIFORM || s.grid.uniform);
+    assert_true(field == VARIED || s.grid.uniform_g);
+    if (field != UNIFORM && !s.grid.delta) { /* a vacuum: nothing to track */
       assert_true(CASES[i].sigma_a + CASES[i].sigma_s == 0.0);
       scene_release(&s);
       continue;
@@ -131,8 +137,8 @@ static void lanes_leave_the_scalar_loops_tally_bit_for_bit(void **state) {
       hv_trace_photon(&s.tracer, plan, &rng, &scalar);
     }
     hv_trace_lanes(&s.tracer, plan, seed, stream, first, end, &lanes);
-    print_message("%-30s %-7s near %.6f far %.6f absorbed %.6f truncated paths %g\n", CASES[i].name,
-                  field == UNIFORM ? "uniform" : "varied", v_scalar[0] + v_scalar[1] + v_scalar[2] + v_scalar[3] + v_scalar[4],
+    print_message("%-30s %-12s near %.6f far %.6f absorbed %.6f truncated paths %g\n", CASES[i].name,
+                  FIELD_NAMES[field], v_scalar[0] + v_scalar[1] + v_scalar[2] + v_scalar[3] + v_scalar[4],
                   v_scalar[5] + v_scalar[6] + v_scalar[7] + v_scalar[8] + v_scalar[9],
                   scalar.stats[HV_STAT_ABSORBED], scalar.stats[HV_STAT_TRUNCATED_PATHS]);
     assert_memory_equal(v_scalar, v_lanes, sizeof v_scalar);
@@ -165,9 +171,9 @@ static void grad_tally_init(grad_tally_t *g, const hetinv_context_t *ctx) {
 static void lanes_leave_the_scalar_loops_gradient_bit_for_bit(void **state) {
   (void)state;
   const uint64_t seed = 99, first = 5, end = 5 + 1501;
-  for (size_t j = 0; j < 2 * sizeof CASES / sizeof CASES[0]; ++j) {
-    size_t i = j / 2;
-    field_t field = j % 2 ? VARIED : UNIFORM;
+  for (size_t j = 0; j < LANE_FIELDS * sizeof CASES / sizeof CASES[0]; ++j) {
+    size_t i = j / LANE_FIELDS;
+    field_t field = (field_t)(j % LANE_FIELDS);
     scene_t s;
     scene_make(&s, &CASES[i], field);
     const hv_plan_t *plan = &s.plans.plan[0];
