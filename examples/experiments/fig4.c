@@ -86,7 +86,7 @@
  * data's, and residual_above does so only where the render is above the
  * data (estimator.loss_clip_errors; default data); --smoothness L adds a
  * smoothness prior of weight L in the loss's units (optimizer.smoothness;
- * default 0, none, and 1500 for (1) and (4) with --full); --multiscale A
+ * default 0, none, and 1500 with --full); --multiscale A
  * adds A times each coarser block's mean gradient to every entry's
  * (optimizer.multiscale; default 1 with --full, 0 reduced); --box-margin M
  * lets the iterates leave each box by M of its width (in ln π under log
@@ -240,14 +240,15 @@ static void make_scene(recon_scene_t *sc, const fig4_options_t *o, int c, int v)
      * Both measured in docs/results/fig4.md. */
     sc->multiscale = 1.0;
     sc->truth_photons = 120000;
-    /* (1) and (4): a smoothness prior of weight 1500, for the voxels
-     * their data leave undetermined (clusters where σa, σs and g trade).
-     * Chosen for (4) on volume 6, outside the table, among 0, 1500,
-     * 15 000 and 50 000 (1500 lowered 5 of its 6 figures); on volumes 1-5
-     * 22 of (4)'s 30 figures fell, 4 rose. The same weight on (1): 12 of
-     * 12 lower on volumes 1-2, then 14 of 18 on volumes 3-5, unseen
-     * (docs/results/fig4.md). Not tried on (2) and (3). */
-    if (c == RECON_COMBINED || c == RECON_PATHLENGTH) sc->smoothness = 1500.0;
+    /* Every configuration: a smoothness prior of weight 1500, for the
+     * voxels the data leave undetermined (clusters where σa, σs and g
+     * trade). Chosen for (4) on volume 6, outside the table, among 0,
+     * 1500, 15 000 and 50 000 (1500 lowered 5 of its 6 figures); on
+     * volumes 1-5 22 of (4)'s 30 figures fell, 4 rose. The same weight
+     * on (1): 26 of 30 lower; on (2) and (3), checked on volume 6 first
+     * (5 and 6 of 6 lower), then most of their figures on volumes 1-5
+     * (docs/results/fig4.md). */
+    sc->smoothness = 1500.0;
   } else {
     /* hetinv-reconstruct's built-in scene: a 0.6 mm cube, 6 × 6 section
      * (0.1 mm voxels, pixels and bins), 1 → 2 → 3 → 6 cells, 600
