@@ -21,8 +21,8 @@
  * The reduced default (hetinv-reconstruct's built-in scene: a 0.6 mm
  * cube, 6 × 6 section, one 0.1 mm imaging pixel and bin per voxel; 2
  * volumes) ran in 224 s on two cores; --full is the paper's size
- * (10 mm cube, 25 × 25 section, 0.1 mm pixels and bins, 5 volumes, 2000
- * finest iterations, 4000 for configurations (2) and (3); ADADELTA's
+ * (10 mm cube, 25 × 25 section, 0.1 mm pixels and bins, 5 volumes, 4000
+ * finest iterations, 2000 for configuration (1); ADADELTA's
  * ε 0.0015). --volumes A-B runs volumes A to B only (side by side in
  * separate folders; copy the cell folders together to tabulate them).
  *
@@ -205,8 +205,14 @@ static void make_scene(recon_scene_t *sc, const fig4_options_t *o, int c, int v)
      * so they can afford it. (2)'s approaches its far σs from above (the
      * start is 4× the truth there) and 2000 iterations left it +16 % on
      * volume 2; 4000 lowered 11 of 12 figures on volumes 1-2, chosen
-     * before volumes 3-5 ran (docs/results/fig4.md, with its cost). */
-    sc->iterations = c == RECON_PATHLENGTH_ANGLES || c == RECON_STEADY ? 4000 : 2000;
+     * before volumes 3-5 ran (docs/results/fig4.md, with its cost).
+     * (4) runs 4000 too, since the smoothness prior below holds the
+     * clusters its data do not split: the longer run removed the σa band
+     * volume 3's coarse stages hand on; chosen on volume 6 (4 of 6
+     * figures lower), it lowered 22 of volumes 1-5's 30 figures. (1)
+     * keeps 2000: its longer runs drifted where its data are weak (tried
+     * without the prior). */
+    sc->iterations = c == RECON_PATHLENGTH ? 2000 : 4000;
     sc->photons = 5000;
     /* Half the reduced scene's ε: at 1875 unknowns the recovery's error
      * follows ADADELTA's step (ε 0.01: 8.2 / 14.5 / 10.9 % mean; 0.003:
