@@ -33,7 +33,10 @@
  * runs on several threads, each thread but the first reads its own copy
  * of the grid's per-voxel records (33 bytes per voxel) when they exceed
  * 1 MB, up to 1 GB of copies: two cores reading one large array served
- * each other's cache misses.
+ * each other's cache misses. Every pass keeps the grid's records and these
+ * copies too, for the next pass on a grid of the same voxel count, which
+ * then writes its values into pages already mapped (a grid of another
+ * size frees them first).
  */
 #ifndef HETINV_ESTIMATOR_H
 #define HETINV_ESTIMATOR_H

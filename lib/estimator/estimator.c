@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "estimator/estimator_internal.h"
 #include "estimator/grad_scratch.h"
+#include "transport/grid_store.h"
 
 /* Bounds, defaults and integrality of each tunable, indexed by enum value. */
 static const struct {
@@ -39,7 +40,10 @@ HETINV_API hetinv_result_t hetinv_estimator_create(hetinv_context_t *ctx, hetinv
   if (e == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate an estimator");
   e->ctx = ctx;
   e->grad_scratch = hv_calloc(ctx, 1, sizeof *e->grad_scratch);
-  if (e->grad_scratch == NULL) {
+  e->grid_store = hv_calloc(ctx, 1, sizeof *e->grid_store);
+  if (e->grad_scratch == NULL || e->grid_store == NULL) {
+    hv_free(ctx, e->grad_scratch);
+    hv_free(ctx, e->grid_store);
     hv_free(ctx, e);
     return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate an estimator");
   }
@@ -54,6 +58,8 @@ HETINV_API void hetinv_estimator_destroy(hetinv_estimator_t **estimator) {
   hv_free((*estimator)->ctx, (*estimator)->gains);
   hv_grad_scratch_release((*estimator)->ctx, (*estimator)->grad_scratch);
   hv_free((*estimator)->ctx, (*estimator)->grad_scratch);
+  hv_grid_store_release((*estimator)->ctx, (*estimator)->grid_store);
+  hv_free((*estimator)->ctx, (*estimator)->grid_store);
   hv_free((*estimator)->ctx, *estimator);
   *estimator = NULL;
 }

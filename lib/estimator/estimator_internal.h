@@ -18,6 +18,8 @@ struct hetinv_estimator {
   size_t gain_count, gain_capacity;
   /* Gradient passes' voxel-sized scratch, kept between calls (grad_scratch.h). */
   struct hv_grad_scratch *grad_scratch;
+  /* The passes' grid arrays, kept between calls (transport/grid_store.h). */
+  struct hv_grid_store *grid_store;
 };
 
 /* "HETINV_ESTIMATOR_PHOTONS", ..., for messages of other modules. */

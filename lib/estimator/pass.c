@@ -68,8 +68,8 @@ static void copy_grid_per_thread(hv_pass_t *pass) {
   pass->grid_copies = hv_calloc(pass->ctx, (size_t)copies, sizeof *pass->grid_copies);
   pass->grid_copy_filled = hv_calloc(pass->ctx, (size_t)copies, sizeof *pass->grid_copy_filled);
   if (pass->grid_copies == NULL || pass->grid_copy_filled == NULL) return;
-  while (pass->grid_copy_count < copies &&
-         hv_grid_copy_alloc(&pass->grid, &pass->grid_copies[pass->grid_copy_count])) {
+  while (pass->grid_copy_count < copies && hv_grid_copy_take(&pass->grid, pass->grid_store, pass->grid_copy_count + 1,
+                                                             &pass->grid_copies[pass->grid_copy_count])) {
     ++pass->grid_copy_count;
   }
 #else
@@ -103,8 +103,11 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
                    geo.eta_out, set->geo.lo[0], set->geo.hi[0], set->geo.lo[1], set->geo.hi[1],
                    set->geo.lo[2], set->geo.hi[2], set->geo.eta, set->geo.eta_out);
   }
-  *pass = (hv_pass_t){.ctx = ctx, .start_seconds = hv_now_seconds(), .grad_scratch = est->grad_scratch};
-  hetinv_result_t r = hv_grid_build(medium, &pass->grid);
+  *pass = (hv_pass_t){.ctx = ctx,
+                      .start_seconds = hv_now_seconds(),
+                      .grad_scratch = est->grad_scratch,
+                      .grid_store = est->grid_store};
+  hetinv_result_t r = hv_grid_build(medium, pass->grid_store, &pass->grid);
   if (r != HETINV_SUCCESS) return r;
   r = hv_plans_build(set, &pass->plans);
   if (r != HETINV_SUCCESS) {
@@ -163,7 +166,6 @@ int hv_pass_slot_count(const hv_pass_t *pass, size_t bytes_per_slot, int *thread
 }
 
 void hv_pass_end(hv_pass_t *pass) {
-  for (int i = 0; i < pass->grid_copy_count; ++i) hv_grid_release_copy(&pass->grid_copies[i]);
   hv_free(pass->ctx, pass->grid_copies);
   hv_free(pass->ctx, pass->grid_copy_filled);
   pass->grid_copies = NULL;

@@ -22,8 +22,10 @@ typedef struct hv_pass {
   int32_t rank, ranks;
   int32_t emitter_lo, emitter_hi;
   struct hv_grad_scratch *grad_scratch; /* the estimator's (grad_scratch.h) */
+  hv_grid_store_t *grid_store;          /* the estimator's: grid's and copies' per-voxel arrays */
   /* Threads 1 .. grid_copy_count trace in their own copy of the grid's
-   * per-voxel arrays (pass.c: copy_grid_per_thread); the others in grid. */
+   * per-voxel arrays (pass.c: copy_grid_per_thread), slots 1 .. of
+   * grid_store; the others in grid. */
   hv_grid_t *grid_copies;
   int grid_copy_count;
   bool *grid_copy_filled; /* copy i is filled by its thread on first use */

@@ -13,16 +13,22 @@
 
 static size_t voxel_count(const hv_grid_t *g) { return (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2]; }
 
-static hetinv_result_t choose_tracking(hv_grid_t *grid);
+static hetinv_result_t choose_tracking(hv_grid_t *grid, hv_grid_store_t *store);
 
-hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
+hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_store_t *store, hv_grid_t *out) {
   *out = (hv_grid_t){0};
   out->ctx = medium->ctx;
   size_t n = medium->voxel_count;
   size_t faces = (size_t)medium->dims[0] + (size_t)medium->dims[1] + (size_t)medium->dims[2] + 3;
   size_t voxel_bytes = 0, face_bytes = 0;
   /* Every entry is written below: no need to zero them first. */
-  if (hv_mul_size(n, sizeof *out->voxel, &voxel_bytes)) out->voxel = hv_alloc(medium->ctx, voxel_bytes);
+  if (store != NULL) {
+    hv_grid_slot_t *slot = hv_grid_store_slot(medium->ctx, store, 0, n, false);
+    out->voxel = slot ? slot->voxel : NULL;
+    out->borrowed = true;
+  } else if (hv_mul_size(n, sizeof *out->voxel, &voxel_bytes)) {
+    out->voxel = hv_alloc(medium->ctx, voxel_bytes);
+  }
   if (hv_mul_size(faces, sizeof(double), &face_bytes)) out->face_storage = hv_alloc(medium->ctx, face_bytes);
   if (out->voxel == NULL || out->face_storage == NULL) {
     hv_grid_release(out);
@@ -72,7 +78,7 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
   }
   out->eta = medium->eta;
   out->eta_out = medium->eta_out;
-  hetinv_result_t r = choose_tracking(out);
+  hetinv_result_t r = choose_tracking(out, store);
   if (r != HETINV_SUCCESS) hv_grid_release(out);
   return r;
 }
@@ -89,7 +95,7 @@ hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out) {
  * tracking pays one tentative collision per 1/σ̄, stepping one crossing per
  * voxel face (Σ_a E|d_a| / h_a = Σ_a 1/(2 h_a) for isotropic directions)
  * and a set-up per collision (σt's mean), and builds its byte table. */
-static hetinv_result_t choose_tracking(hv_grid_t *grid) {
+static hetinv_result_t choose_tracking(hv_grid_t *grid, hv_grid_store_t *store) {
   if (grid->uniform) { /* stepping is not needed, nor delta tracking */
     grid->majorant = grid->voxel[0].sigma_t;
     grid->inv_majorant = 1.0 / grid->majorant;
@@ -119,7 +125,12 @@ static hetinv_result_t choose_tracking(hv_grid_t *grid) {
   double step_cost = HV_COST_CROSSING * crossings + HV_COST_FLIGHT * sum / (double)n;
   grid->delta = !grid->uniform && max > 0.0 && isfinite(max) && HV_COST_TENTATIVE * max <= step_cost;
   if (!grid->delta) return HETINV_SUCCESS;
-  grid->sigma_t_q = hv_alloc(grid->ctx, n);
+  if (store != NULL) {
+    hv_grid_slot_t *slot = hv_grid_store_slot(grid->ctx, store, 0, n, true);
+    grid->sigma_t_q = slot ? slot->sigma_t_q : NULL;
+  } else {
+    grid->sigma_t_q = hv_alloc(grid->ctx, n);
+  }
   if (grid->sigma_t_q == NULL) {
     return HV_FAIL(grid->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the majorant table of %zu voxels", n);
   }
@@ -132,10 +143,12 @@ static hetinv_result_t choose_tracking(hv_grid_t *grid) {
 }
 
 void hv_grid_release(hv_grid_t *grid) {
-  hv_free(grid->ctx, grid->voxel);
+  if (!grid->borrowed) {
+    hv_free(grid->ctx, grid->voxel);
+    hv_free(grid->ctx, grid->sigma_t_q);
+  }
   hv_free(grid->ctx, grid->face_storage);
   hv_free(grid->ctx, grid->axis_depth_storage);
-  hv_free(grid->ctx, grid->sigma_t_q);
   grid->sigma_t_q = NULL;
   grid->voxel = NULL;
   grid->face_storage = NULL;
@@ -148,15 +161,13 @@ size_t hv_grid_voxel_bytes(const hv_grid_t *g) {
   return n * (sizeof *g->voxel + (g->sigma_t_q ? 1 : 0));
 }
 
-bool hv_grid_copy_alloc(const hv_grid_t *g, hv_grid_t *copy) {
-  size_t n = voxel_count(g);
+bool hv_grid_copy_take(const hv_grid_t *g, hv_grid_store_t *store, int i, hv_grid_t *copy) {
+  hv_grid_slot_t *slot = hv_grid_store_slot(g->ctx, store, i, voxel_count(g), g->sigma_t_q != NULL);
+  if (slot == NULL) return false;
   *copy = *g;
-  copy->voxel = hv_alloc(g->ctx, n * sizeof *g->voxel);
-  copy->sigma_t_q = g->sigma_t_q ? hv_alloc(g->ctx, n) : NULL;
-  if (copy->voxel == NULL || (g->sigma_t_q && copy->sigma_t_q == NULL)) {
-    hv_grid_release_copy(copy);
-    return false;
-  }
+  copy->voxel = slot->voxel;
+  copy->sigma_t_q = g->sigma_t_q ? slot->sigma_t_q : NULL;
+  copy->borrowed = true;
   return true;
 }
 
@@ -164,13 +175,6 @@ void hv_grid_copy_fill(const hv_grid_t *g, hv_grid_t *copy) {
   size_t n = voxel_count(g);
   memcpy(copy->voxel, g->voxel, n * sizeof *g->voxel);
   if (g->sigma_t_q) memcpy(copy->sigma_t_q, g->sigma_t_q, n);
-}
-
-void hv_grid_release_copy(hv_grid_t *copy) {
-  hv_free(copy->ctx, copy->voxel);
-  hv_free(copy->ctx, copy->sigma_t_q);
-  copy->voxel = NULL;
-  copy->sigma_t_q = NULL;
 }
 
 /* One table: along axis a toward its face `up`, each line of voxels summed

@@ -11,6 +11,7 @@
 #include "core/compiler.h"
 #include "hetinv/medium.h"
 #include "hetinv/sampling.h"
+#include "transport/grid_store.h"
 
 /* What the walk reads of one voxel, packed in one record (32 bytes, two
  * per cache line): a crossing reads σt, a collision 1/σt, a scattering the
@@ -38,6 +39,7 @@ typedef struct hv_grid {
   const double *sigma_s; /* the medium's own array (gradient scores need σs) */
   double eta, eta_out;
   const hetinv_context_t *ctx;
+  bool borrowed; /* voxel and sigma_t_q are a store's (grid_store.h), not freed with the grid */
   /* Every voxel has the same σt, albedo and g: free flights of the forward
    * pass then skip the voxel stepping (hv_ray_march_uniform). */
   int uniform;
@@ -68,22 +70,23 @@ typedef struct hv_grid {
   double *axis_depth_storage;
 } hv_grid_t;
 
-/* Builds the grid of a committed medium; release with hv_grid_release. */
-hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_t *out);
+/* Builds the grid of a committed medium, its per-voxel arrays in slot 0
+ * of `store` (kept there for the next build) or, with store NULL, its own;
+ * release with hv_grid_release. */
+hetinv_result_t hv_grid_build(const hetinv_medium_t *medium, hv_grid_store_t *store, hv_grid_t *out);
 void hv_grid_release(hv_grid_t *grid);
 
-/* A copy of g whose per-voxel records and acceptance bytes are its own,
- * everything else shared with g, for one thread to read: two cores
- * reading the same lines of arrays larger than their caches serve each
- * other's misses (docs/results/kernel.md). hv_grid_copy_alloc allocates
- * them (false if memory ran out); hv_grid_copy_fill copies g's values in,
- * on the thread that will read them, so that its pages are first touched
- * there and the copies are made in parallel. Release with
- * hv_grid_release_copy, before g. */
-bool hv_grid_copy_alloc(const hv_grid_t *g, hv_grid_t *copy);
+/* A copy of g whose per-voxel records and acceptance bytes are slot i
+ * (≥ 1) of store, everything else shared with g, for one thread to read:
+ * two cores reading the same lines of arrays larger than their caches
+ * serve each other's misses (docs/results/kernel.md). hv_grid_copy_take
+ * takes the slot (false if memory ran out); hv_grid_copy_fill copies g's
+ * values in, on the thread that will read them, so that a new slot's
+ * pages are first touched there and the copies are made in parallel.
+ * Nothing to release: the store keeps the slot. */
+bool hv_grid_copy_take(const hv_grid_t *g, hv_grid_store_t *store, int i, hv_grid_t *copy);
 void hv_grid_copy_fill(const hv_grid_t *g, hv_grid_t *copy);
-void hv_grid_release_copy(hv_grid_t *copy);
-/* The bytes hv_grid_copy_alloc allocates. */
+/* The bytes of one copy's arrays (hv_grid_copy_take). */
 size_t hv_grid_voxel_bytes(const hv_grid_t *g);
 
 /* Builds axis_depth[f] for every face f in the bit mask `faces` (bit f);

@@ -664,6 +664,52 @@ static void repeated_renders_are_identical(void **state) {
   scene_release(&s);
 }
 
+/* A medium of 40 x 40 x 24 voxels whose σa, σs and g vary voxel by voxel
+ * (with `shift`): delta-tracked, and with records over 1 MB, so that a
+ * second thread reads its own copy of them (committed). */
+static hetinv_medium_t *make_large(hetinv_context_t *ctx, int shift) {
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_medium_create(ctx, box_min, box_max, (int32_t[]){40, 40, 24}, &m));
+  assert_ok(hetinv_medium_fill(m, 0.05, 0.5, 0.3));
+  for (int32_t z = 0; z < 24; ++z) {
+    for (int32_t y = 0; y < 40; ++y) {
+      for (int32_t x = 0; x < 40; ++x) {
+        int r = (x * 7 + y * 13 + z * 5 + shift) % 17;
+        assert_ok(hetinv_medium_set_voxel(m, x, y, z, 0.02 + 0.01 * r, 0.4 + 0.05 * r, 0.05 * (r % 9)));
+      }
+    }
+  }
+  assert_ok(hetinv_medium_set_ior(m, 1.4, 1.0));
+  assert_ok(hetinv_medium_commit(m));
+  return m;
+}
+
+/* An estimator keeps its passes' grid arrays (and the second thread's
+ * copy) between calls: renders on media of another size, or of the same
+ * size with other values, must not see what an earlier pass left. */
+static void a_reused_estimator_renders_what_a_fresh_one_does(void **state) {
+  (void)state;
+  hetinv_context_t *ctx = make_context(2, 7);
+  scene_t media[4];
+  scene_init(&media[0], ctx, make_large(ctx, 0));
+  scene_init(&media[1], ctx, make_turbid(ctx));
+  scene_init(&media[2], ctx, make_large(ctx, 5));
+  scene_init(&media[3], ctx, make_large(ctx, 0));
+  hetinv_estimator_t *kept = make_estimator(ctx, 4000);
+  for (int i = 0; i < 4; ++i) {
+    hetinv_estimator_t *fresh = make_estimator(ctx, 4000);
+    output_t a, b;
+    render_scene(kept, &media[i], &a);
+    render_scene(fresh, &media[i], &b);
+    assert_true(a.values[ROW2] > 0.0);
+    assert_true(outputs_identical(&a, &b));
+    hetinv_estimator_destroy(&fresh);
+  }
+  hetinv_estimator_destroy(&kept);
+  for (int i = 0; i < 4; ++i) scene_release(&media[i]);
+  hetinv_context_destroy(&ctx);
+}
+
 static void optional_outputs_do_not_change_the_values(void **state) {
   scene_t s;
   scene_init(&s, *state, make_turbid(*state));
@@ -1219,6 +1265,7 @@ int main(void) {
       cmocka_unit_test(stats_count_the_photons_of_every_emitter),
       cmocka_unit_test(render_is_identical_for_one_and_two_threads),
       cmocka_unit_test(repeated_renders_are_identical),
+      cmocka_unit_test(a_reused_estimator_renders_what_a_fresh_one_does),
       cmocka_unit_test(optional_outputs_do_not_change_the_values),
       cmocka_unit_test(stream_changes_the_result),
       cmocka_unit_test(seed_changes_the_result),

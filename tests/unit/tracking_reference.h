@@ -51,7 +51,7 @@ static void fixture_make(fixture_t *f, uint64_t *seed) {
   assert_ok(hetinv_medium_set_grid(f->medium, HETINV_PARAM_SIGMA_A, sa, n));
   assert_ok(hetinv_medium_set_grid(f->medium, HETINV_PARAM_SIGMA_S, ss, n));
   assert_ok(hetinv_medium_commit(f->medium));
-  assert_ok(hv_grid_build(f->medium, &f->grid));
+  assert_ok(hv_grid_build(f->medium, NULL, &f->grid));
   assert_false(f->grid.uniform);
 }
 

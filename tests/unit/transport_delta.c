@@ -46,7 +46,7 @@ static void grid_fixture_make(fixture_t *f, const int32_t dims[3], const double 
   assert_ok(hetinv_medium_set_grid(f->medium, HETINV_PARAM_SIGMA_A, sa, n));
   assert_ok(hetinv_medium_set_grid(f->medium, HETINV_PARAM_SIGMA_S, ss, n));
   assert_ok(hetinv_medium_commit(f->medium));
-  assert_ok(hv_grid_build(f->medium, &f->grid));
+  assert_ok(hv_grid_build(f->medium, NULL, &f->grid));
 }
 
 /* The state a flight leaves: a collision at p + s·d in the voxel r->k

@@ -88,7 +88,7 @@ static void scene_make(scene_t *s, const medium_case_t *c, field_t field) {
   assert_ok(hetinv_measurements_add(s->set, s->beam, s->near, s->bins, NULL));
   assert_ok(hetinv_measurements_add(s->set, s->beam, s->far, s->bins, NULL));
   assert_int_equal(hetinv_measurements_value_count(s->set), VALUES);
-  assert_ok(hv_grid_build(s->medium, &s->grid));
+  assert_ok(hv_grid_build(s->medium, NULL, &s->grid));
   assert_ok(hv_plans_build(s->set, &s->plans));
   hv_exp_table_init(&s->table);
   s->tracer = (hv_tracer_t){.grid = &s->grid,

@@ -35,7 +35,7 @@ static void uniform_fixture_make(fixture_t *f) {
   assert_ok(hetinv_medium_create(f->ctx, LO, HI, dims, &f->medium));
   assert_ok(hetinv_medium_fill(f->medium, 0.7, 3.1, 0.4));
   assert_ok(hetinv_medium_commit(f->medium));
-  assert_ok(hv_grid_build(f->medium, &f->grid));
+  assert_ok(hv_grid_build(f->medium, NULL, &f->grid));
   assert_true(f->grid.uniform);
 }
 
@@ -430,7 +430,7 @@ static void ray_vertex_entry_applies_as_its_two_entries(void **state) {
   assert_ok(hetinv_medium_set_grid(medium, HETINV_PARAM_G, gg, N));
   assert_ok(hetinv_medium_commit(medium));
   hv_grid_t g;
-  assert_ok(hv_grid_build(medium, &g));
+  assert_ok(hv_grid_build(medium, NULL, &g));
   grad_arrays_t *two = test_malloc(sizeof *two), *one = test_malloc(sizeof *one);
   grad_arrays_init(two);
   grad_arrays_init(one);
