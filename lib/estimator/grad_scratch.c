@@ -19,8 +19,7 @@ static void free_tally(const hetinv_context_t *ctx, hv_grad_tally_t *gt) {
   hv_free(ctx, gt->grad);
   hv_free(ctx, gt->touched);
   hv_free(ctx, gt->touched_list);
-  hv_path_log_release(&gt->path);
-  hv_path_log_release(&gt->chain);
+  hv_grad_tally_release_logs(gt);
   memset(gt, 0, sizeof *gt);
 }
 

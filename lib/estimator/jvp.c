@@ -72,8 +72,7 @@ static void release(const hetinv_context_t *ctx, tangent_pass_t *f, int slots) {
     if (f->tallies) hv_free(ctx, f->tallies[t].values);
     if (f->grads) {
       hv_free(ctx, f->grads[t].jvp.run);
-      hv_path_log_release(&f->grads[t].path);
-      hv_path_log_release(&f->grads[t].chain);
+      hv_grad_tally_release_logs(&f->grads[t]);
     }
   }
   hv_free(ctx, f->tallies);

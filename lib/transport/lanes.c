@@ -2,6 +2,7 @@
 
 #include <math.h>
 
+#include "core/alloc.h"
 #include "core/compiler.h"
 #include "transport/delta.h"
 #include "transport/photon.h"
@@ -291,9 +292,7 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
   lanes_t s;
   s.active = 0;
   s.next = s.added = first;
-  for (int i = 0; i < RING; ++i) {
-    s.ring[i].log = (hv_path_log_t){.ctx = grad ? tally->grad->path.ctx : NULL};
-  }
+  for (int i = 0; i < RING; ++i) s.ring[i].log = grad ? tally->grad->lane_logs[i] : (hv_path_log_t){0};
   for (;;) {
     for (int l = 0; l < LANES; ++l) {
       while (!(s.active >> l & 1u) && s.next < end && s.next - s.added < RING) {
@@ -378,14 +377,39 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
   add_finished(tr, plan, &s, tally);
   for (int i = 0; grad && i < RING; ++i) {
     if (s.ring[i].log.out_of_memory) tally->grad->path.out_of_memory = true; /* reported after the pass */
-    hv_path_log_release(&s.ring[i].log);
+    s.ring[i].log.out_of_memory = false;
+    tally->grad->lane_logs[i] = s.ring[i].log; /* its room, for the next batch */
   }
+}
+
+/* The tally's ring of score logs, made on its first lanes pass: each log
+ * then keeps the room its longest path needed, so that later batches
+ * allocate and clear none (64 logs of 256 entries or more: clearing them in
+ * every batch cost about 4 % of A1's gradient pass, page faults included). */
+static bool take_lane_logs(hv_grad_tally_t *gt) {
+  if (gt->lane_logs != NULL) return true;
+  gt->lane_logs = hv_calloc(gt->path.ctx, RING, sizeof *gt->lane_logs);
+  if (gt->lane_logs == NULL) return false;
+  for (int i = 0; i < RING; ++i) gt->lane_logs[i] = (hv_path_log_t){.ctx = gt->path.ctx};
+  return true;
+}
+
+void hv_grad_tally_release_logs(hv_grad_tally_t *gt) {
+  for (int i = 0; gt->lane_logs && i < RING; ++i) hv_path_log_release(&gt->lane_logs[i]);
+  hv_free(gt->path.ctx, gt->lane_logs);
+  gt->lane_logs = NULL;
+  hv_path_log_release(&gt->path);
+  hv_path_log_release(&gt->chain);
 }
 
 HV_TARGET_CLONES_X86_64_V3
 void hv_trace_lanes(const hv_tracer_t *tr, const hv_plan_t *plan, uint64_t seed, uint32_t stream,
                     uint64_t first, uint64_t end, hv_tally_t *tally) {
   bool uniform = tr->grid->uniform, grad = tally->grad != NULL;
+  if (grad && !take_lane_logs(tally->grad)) {
+    tally->grad->path.out_of_memory = true; /* reported after the pass */
+    return;
+  }
   if (uniform && !grad) trace_lanes(tr, plan, seed, stream, first, end, tally, false, false);
   if (!uniform && !grad) trace_lanes(tr, plan, seed, stream, first, end, tally, true, false);
   if (uniform && grad) trace_lanes(tr, plan, seed, stream, first, end, tally, false, true);

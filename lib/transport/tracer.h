@@ -39,6 +39,9 @@ typedef struct hv_grad_tally {
   double *grad;
   size_t voxels;
   hv_path_log_t path, chain; /* scratch of the current path and connection */
+  /* The SIMD lanes' ring of photons' score logs (lanes.c), kept with
+   * their room from batch to batch; NULL until a lanes pass needs them. */
+  hv_path_log_t *lane_logs;
   /* Voxels whose gradient entries are (possibly) non-zero, so that the
    * reduction and the reset touch only those. */
   uint8_t *touched;
@@ -47,6 +50,9 @@ typedef struct hv_grad_tally {
   hv_jvp_state_t jvp; /* tangent mode (transport/path_jvp.h); unused otherwise */
   char apart[HV_CACHE_GAP]; /* slots sit side by side in an array */
 } hv_grad_tally_t;
+
+/* Frees the tally's score logs (path, chain, the lanes' ring). */
+void hv_grad_tally_release_logs(hv_grad_tally_t *gt);
 
 /* Adds amount to entry (param block, voxel) of the tally's gradient. */
 static inline void hv_grad_add(hv_grad_tally_t *gt, int param, int64_t voxel, double amount) {
