@@ -198,8 +198,8 @@ static void lanes_leave_the_scalar_loops_gradient_bit_for_bit(void **state) {
       for (int k = 0; k < 3 * VOXELS; ++k) norm += fabs(scalar->grad[k]);
       assert_true(norm > 0.0 || CASES[i].sigma_s == 0.0 || CASES[i].sigma_a + CASES[i].sigma_s == 0.0);
     }
-    hv_path_log_release(&scalar->gt.path);
-    hv_path_log_release(&lanes->gt.path);
+    hv_grad_tally_release_logs(&scalar->gt);
+    hv_grad_tally_release_logs(&lanes->gt);
     test_free(scalar);
     test_free(lanes);
     scene_release(&s);
