@@ -1,6 +1,7 @@
 #include "transport/lanes.h"
 
 #include <math.h>
+#include <stdint.h>
 
 #include "core/alloc.h"
 #include "core/compiler.h"
@@ -232,6 +233,54 @@ bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t
          plan->vertex_count == 0;
 }
 
+/* The grid's constants of a voxel lookup (hv_voxel_inside), in the
+ * lanes' frame: stores to the lanes' random streams (uint32_t) may alias
+ * the grid's int32_t fields, so a lookup through the grid pointer reloaded
+ * them after every draw. Where the grid has fewer than 2^31 voxels, int32
+ * strides let four lanes look up at once. */
+typedef struct locator {
+  double lo[3], inv_h[3];
+  int32_t last[3]; /* n - 1 */
+  int64_t stride[3];
+  bool narrow;     /* every linear index fits an int32_t */
+} locator_t;
+
+static locator_t locator_of(const hv_grid_t *g) {
+  locator_t loc;
+  for (int a = 0; a < 3; ++a) {
+    loc.lo[a] = g->lo[a];
+    loc.inv_h[a] = g->inv_h[a];
+    loc.last[a] = g->n[a] - 1;
+    loc.stride[a] = g->stride[a];
+  }
+  loc.narrow = g->stride[2] * (int64_t)g->n[2] <= INT32_MAX;
+  return loc;
+}
+
+/* hv_voxel_inside with the locator's constants: the same operations. */
+HV_ALWAYS_INLINE static inline int64_t voxel_at(const locator_t *loc, const double q[3]) {
+  int64_t k = 0;
+  for (int a = 0; a < 3; ++a) {
+    int32_t i = (int32_t)((q[a] - loc->lo[a]) * loc->inv_h[a]);
+    k += (int64_t)(i <= loc->last[a] ? i : loc->last[a]) * loc->stride[a];
+  }
+  return k;
+}
+
+/* voxel_at of the four lanes' q at once (narrow grids); a lane not in
+ * `in` gets some index in the grid. */
+HV_ALWAYS_INLINE static inline v4i voxels_at(const locator_t *loc, v4m in, const v4d q[3]) {
+  v4i k = {0, 0, 0, 0};
+  for (int a = 0; a < 3; ++a) {
+    v4d lo = splat(loc->lo[a]);
+    v4i i = __builtin_convertvector((pick(in, q[a], lo) - lo) * splat(loc->inv_h[a]), v4i);
+    v4i last = {loc->last[a], loc->last[a], loc->last[a], loc->last[a]};
+    i = (v4i)(((v4i)(i <= last) & i) | (~(v4i)(i <= last) & last));
+    k += i * (int32_t)loc->stride[a];
+  }
+  return k;
+}
+
 /* Delta tracking's flights, as hv_ray_march_delta runs them, on each
  * lane's stream: a lane in `in` (its first tentative collision q lies in
  * the box) tests collisions until one is kept (returned in the mask, q
@@ -242,15 +291,21 @@ bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t
  * at_boundary locates it again, as hv_ray_march_delta does. The four
  * lanes' first voxels are located and their loads started first: their
  * cache misses (a large grid's byte and record) overlap. */
-HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t *s, v4m in, v4d q[3],
-                                                 v4m *out, v4d *albedo, v4d *g) {
+HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, const locator_t *loc, lanes_t *s, v4m in,
+                                                 v4d q[3], v4m *out, v4d *albedo, v4d *g) {
   const hv_grid_t *grid = tr->grid;
   v4m kept = in;
   int64_t first[LANES];
+  if (loc->narrow) {
+    v4i k = voxels_at(loc, in, q);
+    for (int l = 0; l < LANES; ++l) first[l] = k[l];
+  }
   for (int l = 0; l < LANES; ++l) {
     if (!in[l]) continue;
-    const double c[3] = {q[0][l], q[1][l], q[2][l]};
-    first[l] = hv_voxel_inside(grid, c);
+    if (!loc->narrow) {
+      const double c[3] = {q[0][l], q[1][l], q[2][l]};
+      first[l] = voxel_at(loc, c);
+    }
     HV_PREFETCH(&grid->sigma_t_q[first[l]]);
     HV_PREFETCH(&grid->voxel[first[l]]);
   }
@@ -267,7 +322,7 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, lanes_t
         (*out)[l] = -1;
         break;
       }
-      k = hv_voxel_inside(grid, c);
+      k = voxel_at(loc, c);
     }
     if (!kept[l]) continue;
     for (int a = 0; a < 3; ++a) q[a][l] = c[a];
@@ -289,6 +344,7 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
   const bool small_g = fabs(grid->voxel[0].g) < 1.0 / 3.0; /* grids of one g only */
   const v4d zero = splat(0.0);
   v4d albedo = splat(grid->voxel[0].albedo), g = splat(grid->voxel[0].g);
+  const locator_t loc = locator_of(grid);
   lanes_t s;
   s.active = 0;
   s.next = s.added = first;
@@ -319,7 +375,7 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
       in &= (q[a] >= splat(grid->lo[a])) & (q[a] <= splat(grid->hi[a]));
     }
     v4m out = act & ~in;
-    v4m hit = delta ? keep_tentative(tr, &s, in, q, &out, &albedo, &g) : in;
+    v4m hit = delta ? keep_tentative(tr, &loc, &s, in, q, &out, &albedo, &g) : in;
     if (any(out)) {
       for (int l = 0; l < LANES; ++l) {
         if (out[l]) at_boundary(grid, &s, l, grad);
