@@ -11,6 +11,7 @@
 #ifndef HV_DELTA_H
 #define HV_DELTA_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "core/compiler.h"
@@ -33,13 +34,35 @@ HV_ALWAYS_INLINE static inline void hv_ray_locate_inside(const hv_grid_t *g, hv_
 }
 
 /* hv_ray_locate_inside's voxel index alone, for a point q of the box
- * (hv_grid_contains): q ≥ lo makes every coordinate's truncation ≥ 0, so
- * only rounding at the far faces needs the clamp. */
-HV_ALWAYS_INLINE static inline int64_t hv_voxel_inside(const hv_grid_t *g, const double q[3]) {
+ * (hv_grid_contains), from the grid's constants copied into a caller's
+ * frame: a loop that also stores to random streams (uint32_t, which may
+ * alias the grid's int32_t fields) would otherwise reload them after every
+ * draw. q ≥ lo makes every coordinate's truncation ≥ 0, so only rounding
+ * at the far faces needs the clamp. */
+typedef struct hv_locator {
+  double lo[3], inv_h[3];
+  int32_t last[3]; /* n - 1 */
+  int64_t stride[3];
+  bool narrow;     /* every linear index fits an int32_t */
+} hv_locator_t;
+
+static inline hv_locator_t hv_locator_of(const hv_grid_t *g) {
+  hv_locator_t loc;
+  for (int a = 0; a < 3; ++a) {
+    loc.lo[a] = g->lo[a];
+    loc.inv_h[a] = g->inv_h[a];
+    loc.last[a] = g->n[a] - 1;
+    loc.stride[a] = g->stride[a];
+  }
+  loc.narrow = g->stride[2] * (int64_t)g->n[2] <= INT32_MAX;
+  return loc;
+}
+
+HV_ALWAYS_INLINE static inline int64_t hv_voxel_inside(const hv_locator_t *loc, const double q[3]) {
   int64_t k = 0;
   for (int a = 0; a < 3; ++a) {
-    int32_t i = (int32_t)((q[a] - g->lo[a]) * g->inv_h[a]);
-    k += (int64_t)(i < g->n[a] ? i : g->n[a] - 1) * g->stride[a];
+    int32_t i = (int32_t)((q[a] - loc->lo[a]) * loc->inv_h[a]);
+    k += (int64_t)(i <= loc->last[a] ? i : loc->last[a]) * loc->stride[a];
   }
   return k;
 }

@@ -233,43 +233,9 @@ bool hv_lanes_fit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_tally_t
          plan->vertex_count == 0;
 }
 
-/* The grid's constants of a voxel lookup (hv_voxel_inside), in the
- * lanes' frame: stores to the lanes' random streams (uint32_t) may alias
- * the grid's int32_t fields, so a lookup through the grid pointer reloaded
- * them after every draw. Where the grid has fewer than 2^31 voxels, int32
- * strides let four lanes look up at once. */
-typedef struct locator {
-  double lo[3], inv_h[3];
-  int32_t last[3]; /* n - 1 */
-  int64_t stride[3];
-  bool narrow;     /* every linear index fits an int32_t */
-} locator_t;
-
-static locator_t locator_of(const hv_grid_t *g) {
-  locator_t loc;
-  for (int a = 0; a < 3; ++a) {
-    loc.lo[a] = g->lo[a];
-    loc.inv_h[a] = g->inv_h[a];
-    loc.last[a] = g->n[a] - 1;
-    loc.stride[a] = g->stride[a];
-  }
-  loc.narrow = g->stride[2] * (int64_t)g->n[2] <= INT32_MAX;
-  return loc;
-}
-
-/* hv_voxel_inside with the locator's constants: the same operations. */
-HV_ALWAYS_INLINE static inline int64_t voxel_at(const locator_t *loc, const double q[3]) {
-  int64_t k = 0;
-  for (int a = 0; a < 3; ++a) {
-    int32_t i = (int32_t)((q[a] - loc->lo[a]) * loc->inv_h[a]);
-    k += (int64_t)(i <= loc->last[a] ? i : loc->last[a]) * loc->stride[a];
-  }
-  return k;
-}
-
-/* voxel_at of the four lanes' q at once (narrow grids); a lane not in
- * `in` gets some index in the grid. */
-HV_ALWAYS_INLINE static inline v4i voxels_at(const locator_t *loc, v4m in, const v4d q[3]) {
+/* hv_voxel_inside of the four lanes' q at once (narrow grids: int32
+ * strides); a lane not in `in` gets some index in the grid. */
+HV_ALWAYS_INLINE static inline v4i voxels_at(const hv_locator_t *loc, v4m in, const v4d q[3]) {
   v4i k = {0, 0, 0, 0};
   for (int a = 0; a < 3; ++a) {
     v4d lo = splat(loc->lo[a]);
@@ -291,7 +257,7 @@ HV_ALWAYS_INLINE static inline v4i voxels_at(const locator_t *loc, v4m in, const
  * at_boundary locates it again, as hv_ray_march_delta does. The four
  * lanes' first voxels are located and their loads started first: their
  * cache misses (a large grid's byte and record) overlap. */
-HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, const locator_t *loc, lanes_t *s, v4m in,
+HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, const hv_locator_t *loc, lanes_t *s, v4m in,
                                                  v4d q[3], v4m *out, v4d *albedo, v4d *g) {
   const hv_grid_t *grid = tr->grid;
   v4m kept = in;
@@ -304,7 +270,7 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, const l
     if (!in[l]) continue;
     if (!loc->narrow) {
       const double c[3] = {q[0][l], q[1][l], q[2][l]};
-      first[l] = voxel_at(loc, c);
+      first[l] = hv_voxel_inside(loc, c);
     }
     HV_PREFETCH(&grid->sigma_t_q[first[l]]);
     HV_PREFETCH(&grid->voxel[first[l]]);
@@ -322,7 +288,7 @@ HV_ALWAYS_INLINE static inline v4m keep_tentative(const hv_tracer_t *tr, const l
         (*out)[l] = -1;
         break;
       }
-      k = voxel_at(loc, c);
+      k = hv_voxel_inside(loc, c);
     }
     if (!kept[l]) continue;
     for (int a = 0; a < 3; ++a) q[a][l] = c[a];
@@ -344,7 +310,7 @@ HV_ALWAYS_INLINE static inline void trace_lanes(const hv_tracer_t *tr, const hv_
   const bool small_g = fabs(grid->voxel[0].g) < 1.0 / 3.0; /* grids of one g only */
   const v4d zero = splat(0.0);
   v4d albedo = splat(grid->voxel[0].albedo), g = splat(grid->voxel[0].g);
-  const locator_t loc = locator_of(grid);
+  const hv_locator_t loc = hv_locator_of(grid);
   lanes_t s;
   s.active = 0;
   s.next = s.added = first;
