@@ -12,14 +12,14 @@
 static cpu_set_t g_allowed; /* the thread's CPUs before any pinning */
 static bool g_have_allowed = false;
 
-bool cores_pick_two(int cpu[2]) {
-  if (sched_getaffinity(0, sizeof g_allowed, &g_allowed) != 0) return false;
+int cores_pick(int cpu[], int max) {
+  if (sched_getaffinity(0, sizeof g_allowed, &g_allowed) != 0) return 0;
   g_have_allowed = true;
   int found = 0;
-  for (int c = 0; c < CPU_SETSIZE && found < 2; ++c) {
+  for (int c = 0; c < CPU_SETSIZE && found < max; ++c) {
     if (CPU_ISSET(c, &g_allowed)) cpu[found++] = c;
   }
-  return found == 2;
+  return found;
 }
 
 static bool set_affinity(const cpu_set_t *set, const char *what) {
@@ -41,9 +41,10 @@ bool cores_release(void) {
 
 #else
 
-bool cores_pick_two(int cpu[2]) {
+int cores_pick(int cpu[], int max) {
   (void)cpu;
-  return false;
+  (void)max;
+  return 0;
 }
 
 bool cores_pin(int cpu) {

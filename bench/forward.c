@@ -161,7 +161,7 @@ static bool bench_case(case_id_t c, double photons, int repeat) {
     return false;
   }
   int cpu[2];
-  const bool pinned = cores_pick_two(cpu);
+  const bool pinned = cores_pick(cpu, 2) == 2;
   const int singles = pinned ? 2 : 1;
   run_t best1 = {.seconds = HUGE_VAL}, best2 = {.seconds = HUGE_VAL}, r1[2], r2;
   double best_core[2] = {HUGE_VAL, HUGE_VAL}, round_min = HUGE_VAL, round_max = 0.0;
