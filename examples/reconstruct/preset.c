@@ -153,6 +153,10 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
     fprintf(f, ", \"epsilon_start\": ");
     put_number(f, sc->epsilon_start);
   }
+  if (sc->coarse_epsilon_start > 0.0) {
+    fprintf(f, ", \"coarse_epsilon_start\": ");
+    put_number(f, sc->coarse_epsilon_start);
+  }
   fprintf(f, ", \"decay\": ");
   put_number(f, sc->decay);
   fprintf(f, ",\n                \"learning_rate\": ");

@@ -143,6 +143,7 @@ typedef struct recon_scene {
   int32_t minibatch;
   double epsilon, decay, learning_rate;
   double epsilon_start;         /* the finest stage's ADADELTA ε at its start (0: epsilon throughout) */
+  double coarse_epsilon_start;  /* each coarser stage's ADADELTA ε at its start (0: epsilon throughout) */
   int32_t average_window;       /* 0: half the finest stage's iterations */
   int32_t coarse_average_window; /* each coarse stage's hand-on window; 0: average_window's */
   double time_budget;

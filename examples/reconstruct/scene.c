@@ -364,7 +364,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
-                                        "epsilon_start", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
+                                        "epsilon_start", "coarse_epsilon_start", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
                                         "init", "levels", "layerwise_layers", "stage_results", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
@@ -382,6 +382,10 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_positive(jr, o, "optimizer", "epsilon_start", JR_OPTIONAL, &sc->epsilon_start) < 0) return -1;
   if (!(sc->epsilon_start <= 1.0)) {
     return jr_fail(jr, "optimizer.epsilon_start", "is %g; it must be > 0 and at most 1", sc->epsilon_start);
+  }
+  if (jr_positive(jr, o, "optimizer", "coarse_epsilon_start", JR_OPTIONAL, &sc->coarse_epsilon_start) < 0) return -1;
+  if (!(sc->coarse_epsilon_start <= 1.0)) {
+    return jr_fail(jr, "optimizer.coarse_epsilon_start", "is %g; it must be > 0 and at most 1", sc->coarse_epsilon_start);
   }
   if (jr_number(jr, o, "optimizer", "decay", JR_OPTIONAL, &sc->decay) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;

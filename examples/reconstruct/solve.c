@@ -215,7 +215,8 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
     int64_t it = finest ? sc->iterations : (int64_t)ceil(sc->coarse_fraction * (double)sc->iterations);
     /* A coarse stage hands on the mean of its last coarse_average_window
      * iterates; 0: of the run's window (its whole path if that is longer). */
-    hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL, finest ? sc->epsilon_start : 0.0,
+    hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL,
+                            finest ? sc->epsilon_start : sc->coarse_epsilon_start,
                             finest ? 0 : sc->coarse_average_window};
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_stage(opt, &stage);
   }
