@@ -359,6 +359,18 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   return 0;
 }
 
+/* An optimizer stage's starting ε (hetinv_stage_t.epsilon_start): absent,
+ * or in (0, 1]. */
+static int read_epsilon_start(jr_t *jr, const cJSON *o, const char *key, double *out) {
+  if (jr_positive(jr, o, "optimizer", key, JR_OPTIONAL, out) < 0) return -1;
+  if (!(*out <= 1.0)) {
+    char path[64];
+    snprintf(path, sizeof path, "optimizer.%s", key);
+    return jr_fail(jr, path, "is %g; it must be > 0 and at most 1", *out);
+  }
+  return 0;
+}
+
 static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   const cJSON *o = NULL;
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
@@ -379,14 +391,8 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   }
   if (read_int32(jr, o, "optimizer", "minibatch", 0, INT32_MAX, &sc->minibatch) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "epsilon", JR_OPTIONAL, &sc->epsilon) < 0) return -1;
-  if (jr_positive(jr, o, "optimizer", "epsilon_start", JR_OPTIONAL, &sc->epsilon_start) < 0) return -1;
-  if (!(sc->epsilon_start <= 1.0)) {
-    return jr_fail(jr, "optimizer.epsilon_start", "is %g; it must be > 0 and at most 1", sc->epsilon_start);
-  }
-  if (jr_positive(jr, o, "optimizer", "coarse_epsilon_start", JR_OPTIONAL, &sc->coarse_epsilon_start) < 0) return -1;
-  if (!(sc->coarse_epsilon_start <= 1.0)) {
-    return jr_fail(jr, "optimizer.coarse_epsilon_start", "is %g; it must be > 0 and at most 1", sc->coarse_epsilon_start);
-  }
+  if (read_epsilon_start(jr, o, "epsilon_start", &sc->epsilon_start) < 0) return -1;
+  if (read_epsilon_start(jr, o, "coarse_epsilon_start", &sc->coarse_epsilon_start) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "decay", JR_OPTIONAL, &sc->decay) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "average_window", 0, 4096, &sc->average_window) < 0) return -1;
