@@ -87,6 +87,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->coarse_epsilon_start != 0.0) {
     key_append(key, key_size, " coarse_epsilon_start=%.17g", sc->coarse_epsilon_start);
   }
+  if (sc->settle_epsilon != 0.0) {
+    key_append(key, key_size, " settle_epsilon=%.17g settle_fraction=%.17g", sc->settle_epsilon, sc->settle_fraction);
+  }
   if (sc->coordinates != HETINV_COORDINATES_NATIVE) {
     key_append(key, key_size, " coordinates=%s", recon_coordinate_names[sc->coordinates]);
   }

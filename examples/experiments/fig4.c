@@ -8,7 +8,7 @@
  *
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
- *               [--coarse-epsilon-start E]
+ *               [--coarse-epsilon-start E] [--settle-epsilon E] [--settle-fraction F]
  *               [--coarse-fraction F] [--coarse-levels none|A,B,...] [--stage-results]
  *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
@@ -75,7 +75,10 @@
  * steps once the gradient is mostly noise; --epsilon-start E starts the
  * finest stage at that ε, falling linearly to --epsilon's by its middle
  * (optimizer.epsilon_start), --coarse-epsilon-start E each coarser stage
- * (optimizer.coarse_epsilon_start); --coarse-window N makes each coarse stage hand
+ * (optimizer.coarse_epsilon_start); --settle-epsilon E --settle-fraction F
+ * run the finest stage's last fraction F at ε E and average those
+ * iterates (optimizer.settle_epsilon, settle_fraction; --settle-epsilon 0:
+ * none); --coarse-window N makes each coarse stage hand
  * on the mean of its last N iterates (optimizer.coarse_average_window;
  * default 150 with --full; 0, the reduced default, means the run's window,
  * which at full size is longer than a coarse stage, so it would hand on

@@ -12,7 +12,7 @@ static int usage(const char *what) {
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
-          "                   [--coarse-epsilon-start E]\n"
+          "                   [--coarse-epsilon-start E] [--settle-epsilon E] [--settle-fraction F]\n"
           "                   [--coarse-fraction F] [--coarse-levels none|A,B,...] [--stage-results]\n"
           "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]\n"
           "                   [--independent-errors] [--pooled-errors]\n"
@@ -61,7 +61,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .volumes = -1, .iterations = -1, .photons = -1, .minibatch = -1, .grid = -1, .threads = -1,
       .truth_photons = -1, .coarse_window = -1,
       .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4,
-      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0, .coarse_epsilon_start = -1.0,
+      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0, .coarse_epsilon_start = -1.0, .settle_epsilon = -1.0, .settle_fraction = -1.0,
       .loss_clip = -1.0, .loss_clip_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
       .coordinates = -1,
   };
@@ -144,6 +144,12 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       ++i;
     } else if (strcmp(a, "--epsilon-start") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->epsilon_start) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--settle-epsilon") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1.0, &o->settle_epsilon) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--settle-fraction") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-6, 0.999999, &o->settle_fraction) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--coarse-epsilon-start") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->coarse_epsilon_start) < 0) return 2;
@@ -239,6 +245,12 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->stage_results) sc->stage_results = true;
   if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
   if (o->coarse_epsilon_start > 0.0) sc->coarse_epsilon_start = o->coarse_epsilon_start;
+  /* --settle-epsilon 0 turns a default settling part off. */
+  if (o->settle_epsilon >= 0.0) {
+    sc->settle_epsilon = o->settle_epsilon;
+    if (o->settle_epsilon == 0.0) sc->settle_fraction = 0.0;
+  }
+  if (o->settle_fraction > 0.0) sc->settle_fraction = o->settle_fraction;
   if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;
   if (o->loss_clip >= 0.0) sc->loss_clip = o->loss_clip;
   if (o->loss_clip_errors >= 0) sc->loss_clip_errors = o->loss_clip_errors;

@@ -157,6 +157,12 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
     fprintf(f, ", \"coarse_epsilon_start\": ");
     put_number(f, sc->coarse_epsilon_start);
   }
+  if (sc->settle_epsilon > 0.0) {
+    fprintf(f, ", \"settle_epsilon\": ");
+    put_number(f, sc->settle_epsilon);
+    fprintf(f, ", \"settle_fraction\": ");
+    put_number(f, sc->settle_fraction);
+  }
   fprintf(f, ", \"decay\": ");
   put_number(f, sc->decay);
   fprintf(f, ",\n                \"learning_rate\": ");

@@ -144,7 +144,9 @@ typedef struct recon_scene {
   double epsilon, decay, learning_rate;
   double epsilon_start;         /* the finest stage's ADADELTA ε at its start (0: epsilon throughout) */
   double coarse_epsilon_start;  /* each coarser stage's ADADELTA ε at its start (0: epsilon throughout) */
-  int32_t average_window;       /* 0: half the finest stage's iterations */
+  double settle_epsilon;        /* the finest stage's ADADELTA ε over its last settle_fraction (0: none) */
+  double settle_fraction;
+  int32_t average_window;       /* 0: half the finest stage's iterations, or its settling part */
   int32_t coarse_average_window; /* each coarse stage's hand-on window; 0: average_window's */
   double time_budget;
   double smoothness;            /* the smoothness prior's weight (HETINV_OPTIMIZER_SMOOTHNESS); 0: none */

@@ -376,7 +376,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
-                                        "epsilon_start", "coarse_epsilon_start", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
+                                        "epsilon_start", "coarse_epsilon_start", "settle_epsilon", "settle_fraction", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
                                         "init", "levels", "layerwise_layers", "stage_results", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
@@ -393,6 +393,16 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_positive(jr, o, "optimizer", "epsilon", JR_OPTIONAL, &sc->epsilon) < 0) return -1;
   if (read_epsilon_start(jr, o, "epsilon_start", &sc->epsilon_start) < 0) return -1;
   if (read_epsilon_start(jr, o, "coarse_epsilon_start", &sc->coarse_epsilon_start) < 0) return -1;
+  if (read_epsilon_start(jr, o, "settle_epsilon", &sc->settle_epsilon) < 0) return -1;
+  if (jr_number(jr, o, "optimizer", "settle_fraction", JR_OPTIONAL, &sc->settle_fraction) < 0) return -1;
+  if (sc->settle_epsilon > 0.0 && !(sc->settle_fraction > 0.0 && sc->settle_fraction < 1.0)) {
+    return jr_fail(jr, "optimizer.settle_fraction", "is %g; with optimizer.settle_epsilon it must be > 0 and below 1",
+                   sc->settle_fraction);
+  }
+  if (sc->settle_epsilon == 0.0 && sc->settle_fraction != 0.0) {
+    return jr_fail(jr, "optimizer.settle_fraction", "is %g, but optimizer.settle_epsilon, the epsilon it runs at, is not set",
+                   sc->settle_fraction);
+  }
   if (jr_number(jr, o, "optimizer", "decay", JR_OPTIONAL, &sc->decay) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "average_window", 0, 4096, &sc->average_window) < 0) return -1;

@@ -82,8 +82,13 @@ static int on_progress(const hetinv_progress_t *p, void *user) {
 static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *sc) {
   hetinv_result_t r = HETINV_SUCCESS;
   /* Window 0: average the second half of the finest stage, past its
-   * transient (a window longer than the stage would reach back to it). */
+   * transient (a window longer than the stage would reach back to it), or
+   * its settling part (the finest stage's own window, 0, then means that
+   * part: hetinv_stage_t.settle_epsilon). */
   int64_t window = sc->average_window > 0 ? sc->average_window : sc->iterations / 2;
+  if (sc->average_window == 0 && sc->settle_epsilon > 0.0) {
+    window = (int64_t)llround(sc->settle_fraction * (double)sc->iterations);
+  }
   window = window < 1 ? 1 : (window > 4096 ? 4096 : window);
   for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) r = hetinv_optimizer_set_bounds(opt, p, sc->bounds_lo[p], sc->bounds_hi[p]);
   struct { hetinv_optimizer_param_t id; double value; } params[] = {
@@ -217,7 +222,8 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
      * iterates; 0: of the run's window (its whole path if that is longer). */
     hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL,
                             finest ? sc->epsilon_start : sc->coarse_epsilon_start,
-                            finest ? 0 : sc->coarse_average_window};
+                            finest ? 0 : sc->coarse_average_window,
+                            finest ? sc->settle_epsilon : 0.0, finest ? sc->settle_fraction : 0.0};
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_stage(opt, &stage);
   }
   progress_line_t pl = {.quiet = quiet, .tty = isatty(2) != 0, .opt = opt, .ctx = ctx,

@@ -236,11 +236,27 @@ typedef struct hetinv_stage {
    *  tunable. A short stage under a long tunable window would otherwise
    *  hand on the mean of its whole path, its start included. Added in 0.2. */
   int32_t average_window;
+  /** ADADELTA's ε over the stage's last @c settle_fraction of its
+   *  iterations, relative as HETINV_OPTIMIZER_EPSILON (in [1e-12, 1]);
+   *  0 = none. Large steps approach, small ones settle: a stochastic
+   *  step's iterates scatter about a point that is off the loss's minimum
+   *  by an amount that grows with the step where the loss is not
+   *  quadratic, and averaging them does not remove that offset. With
+   *  @c average_window 0 the stage's result averages its settling
+   *  iterates (at most HETINV_OPTIMIZER_AVERAGE_WINDOW of them). Added in 0.2. */
+  double settle_epsilon;
+  /** The fraction of the stage's iterations, in (0, 1), that run at
+   *  @c settle_epsilon: the last round(settle_fraction × iterations).
+   *  Required with @c settle_epsilon, 0 without it. Added in 0.2. */
+  double settle_fraction;
 } hetinv_stage_t;
 
 /** The size of the first hetinv_stage_t (without @c epsilon_start and
  *  @c average_window), which hetinv_optimizer_add_stage() still accepts. */
 #define HETINV_STAGE_SIZE_V1 (offsetof(hetinv_stage_t, value_mask) + sizeof(const uint8_t *))
+/** The size of the second hetinv_stage_t (without @c settle_epsilon and
+ *  @c settle_fraction), which hetinv_optimizer_add_stage() still accepts. */
+#define HETINV_STAGE_SIZE_V2 (offsetof(hetinv_stage_t, settle_epsilon))
 
 /**
  * @brief What the progress callback is told after every iteration.

@@ -85,11 +85,15 @@ void hv_ckpt_fingerprint(const hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *f
     if (st->frozen) h = hv_ckpt_fnv1a(h, st->frozen, st->k);
     h = hv_ckpt_fnv1a(h, "|", 1);
     if (st->value_mask) h = hv_ckpt_fnv1a(h, st->value_mask, set->value_count);
-    /* A stage's epsilon_start and average_window join its masks' hash: same file layout, and a resume
+    /* A stage's epsilon_start, average_window and settling join its masks' hash: same file layout, and a resume
      * with another ε is refused like one with other masks. 0 (the tunable)
      * adds nothing, so older checkpoints still match. */
     if (st->epsilon_start != 0.0) h = hv_ckpt_fnv1a(h, &st->epsilon_start, sizeof st->epsilon_start);
     if (st->average_window != 0) h = hv_ckpt_fnv1a(h, &st->average_window, sizeof st->average_window);
+    if (st->settle_epsilon != 0.0) {
+      h = hv_ckpt_fnv1a(h, &st->settle_epsilon, sizeof st->settle_epsilon);
+      h = hv_ckpt_fnv1a(h, &st->settle_fraction, sizeof st->settle_fraction);
+    }
     f->stage_masks[s] = h;
   }
   memcpy(f->param, opt->param, sizeof f->param);
@@ -136,7 +140,7 @@ const char *hv_ckpt_fingerprint_diff(const hv_ckpt_fingerprint_t *a, const hv_ck
   for (uint64_t s = 0; s < a->stages && s < 64; ++s) {
     if (a->stage_k[s] != b->stage_k[s] || a->stage_iterations[s] != b->stage_iterations[s] ||
         a->stage_masks[s] != b->stage_masks[s]) {
-      snprintf(msg, len, "stage %llu differs (entries %llu vs %llu, iterations %llu vs %llu, or its masks, epsilon_start or average_window)",
+      snprintf(msg, len, "stage %llu differs (entries %llu vs %llu, iterations %llu vs %llu, or its masks, epsilon_start, average_window or settling)",
                (unsigned long long)s, (unsigned long long)a->stage_k[s], (unsigned long long)b->stage_k[s],
                (unsigned long long)a->stage_iterations[s], (unsigned long long)b->stage_iterations[s]);
       return msg;

@@ -197,15 +197,19 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
   HV_CHECK_NULL(ctx, stage);
-  if (stage->size != HETINV_STAGE_SIZE_V1 && stage->size != sizeof(hetinv_stage_t)) {
+  if (stage->size != HETINV_STAGE_SIZE_V1 && stage->size != HETINV_STAGE_SIZE_V2 &&
+      stage->size != sizeof(hetinv_stage_t)) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "stage->size is %zu; it must be sizeof(hetinv_stage_t) = %zu (or %zu, the first version's)",
-                   stage->size, sizeof(hetinv_stage_t), (size_t)HETINV_STAGE_SIZE_V1);
+                   "stage->size is %zu; it must be sizeof(hetinv_stage_t) = %zu (or %zu or %zu, the earlier versions')",
+                   stage->size, sizeof(hetinv_stage_t), (size_t)HETINV_STAGE_SIZE_V1,
+                   (size_t)HETINV_STAGE_SIZE_V2);
   }
   /* Members past the caller's size read as 0. */
-  const bool v2 = stage->size == sizeof(hetinv_stage_t);
+  const bool v2 = stage->size >= HETINV_STAGE_SIZE_V2, v3 = stage->size == sizeof(hetinv_stage_t);
   const double epsilon_start = v2 ? stage->epsilon_start : 0.0;
   const int32_t average_window = v2 ? stage->average_window : 0;
+  const double settle_epsilon = v3 ? stage->settle_epsilon : 0.0;
+  const double settle_fraction = v3 ? stage->settle_fraction : 0.0;
   if (average_window < 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: average_window is %d; it must be >= 0",
                    (int)optimizer->stage_count, (int)average_window);
@@ -213,6 +217,15 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
   if (!(epsilon_start == 0.0 || (epsilon_start >= 1e-12 && epsilon_start <= 1.0))) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: epsilon_start is %g; it must be 0 or in [1e-12, 1]",
                    (int)optimizer->stage_count, epsilon_start);
+  }
+  if (!(settle_epsilon == 0.0 || (settle_epsilon >= 1e-12 && settle_epsilon <= 1.0))) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: settle_epsilon is %g; it must be 0 or in [1e-12, 1]",
+                   (int)optimizer->stage_count, settle_epsilon);
+  }
+  if (settle_epsilon == 0.0 ? settle_fraction != 0.0 : !(settle_fraction > 0.0 && settle_fraction < 1.0)) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "stage %d: settle_fraction is %g; it must be in (0, 1) with a settle_epsilon, 0 without (settle_epsilon is %g)",
+                   (int)optimizer->stage_count, settle_fraction, settle_epsilon);
   }
   if (stage->map == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'stage->map' is NULL");
   if (!hv_param_map_fits(stage->map, optimizer->initial)) {
@@ -241,7 +254,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
     optimizer->stage_capacity = cap;
   }
   hv_stage_t s = {.map = stage->map, .k = hetinv_param_map_size(stage->map), .requested = stage->iterations,
-                  .epsilon_start = epsilon_start, .average_window = average_window};
+                  .epsilon_start = epsilon_start, .average_window = average_window,
+                  .settle_epsilon = settle_epsilon, .settle_fraction = settle_fraction};
   bool failed = false;
   s.frozen = copy_bytes(ctx, stage->frozen, s.k, &failed);
   s.value_mask = copy_bytes(ctx, stage->value_mask, hetinv_measurements_value_count(optimizer->set), &failed);
@@ -415,7 +429,13 @@ hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt) {
 void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out) {
   size_t k = opt->k;
   int32_t count = opt->ring_count;
-  int32_t stage_window = opt->stage < opt->stage_count ? opt->stages[opt->stage].average_window : 0;
+  int32_t stage_window = 0;
+  if (opt->stage < opt->stage_count) {
+    const hv_stage_t *st = &opt->stages[opt->stage];
+    stage_window = st->average_window;
+    /* Window 0 with a settling part: that part's iterates. */
+    if (stage_window == 0) stage_window = (int32_t)(st->iterations - hv_stage_settle_from(st));
+  }
   if (stage_window > 0 && stage_window < count) count = stage_window;
   if (count == 0) {
     memcpy(out, opt->pi, k * sizeof(double));

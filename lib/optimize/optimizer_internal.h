@@ -20,6 +20,7 @@ typedef struct hv_stage {
   uint8_t *value_mask; /* value_count bytes or NULL */
   double epsilon_start; /* ADADELTA's ε at the stage's start (falls to the tunable); 0 = the tunable */
   int32_t average_window; /* the trailing iterates its result averages (at most the ring's); 0 = the ring's */
+  double settle_epsilon, settle_fraction; /* ε over the stage's last fraction; 0 = none */
 } hv_stage_t;
 
 /* Rows of the set grouped by emitter (in order of first use):
@@ -79,6 +80,12 @@ struct hetinv_optimizer {
 static inline bool hv_entry_log_box(const hetinv_optimizer_t *opt, size_t i) {
   double lo = opt->lo_k[i], hi = opt->hi_k[i];
   return lo > 0.0 && hi > lo && hi < HUGE_VAL;
+}
+/* The first iteration of the stage's settling part at settle_epsilon (the
+ * stage's iteration count when it has none). Resolved iterations only. */
+static inline int64_t hv_stage_settle_from(const hv_stage_t *st) {
+  if (st->settle_epsilon == 0.0) return st->iterations;
+  return st->iterations - (int64_t)llround(st->settle_fraction * (double)st->iterations);
 }
 /* "HETINV_OPTIMIZER_DECAY", ..., for messages. */
 const char *hv_optimizer_param_name(hetinv_optimizer_param_t param);

@@ -156,6 +156,19 @@ class Configuration(unittest.TestCase):
             with self.assertRaisesRegex(hetinv.InvalidStateError, "hetinv_optimizer_set_param"):
                 opt.set_param("iterations", 5)
 
+    def test_settling_stage(self):
+        """A stage's settling part reaches the library (its values are
+        checked there), and runs."""
+        with hetinv.Context(seed=5, threads=1) as ctx:
+            truth, ms, est, initial = problem(ctx, photons=50)
+            pmap = hetinv.ParamMap.identity(truth, "sigma_s")
+            opt = hetinv.Optimizer(ctx, ms, initial, average_window=4)
+            with self.assertRaisesRegex(hetinv.InvalidArgumentError, "settle_fraction is 1"):
+                opt.add_stage(pmap, iterations=4, settle_epsilon=0.001, settle_fraction=1.0)
+            opt.add_stage(pmap, iterations=4, epsilon_start=0.05, settle_epsilon=0.001, settle_fraction=0.5)
+            self.assertEqual(opt.run(est), "completed")
+            self.assertEqual(len(opt.losses()), 4)
+
     def test_layerwise_stages(self):
         with hetinv.Context(seed=5, threads=1) as ctx:
             truth, ms, est, initial = problem(ctx, photons=50)

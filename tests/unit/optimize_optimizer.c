@@ -184,6 +184,7 @@ typedef struct setup {
   double method, minibatch, window, interval;
   double epsilon_start[2]; /* each stage's ε at its start; 0 = the tunable */
   int32_t stage_window[2];  /* each stage's averaging window; 0 = the tunable */
+  double settle_epsilon[2], settle_fraction[2]; /* each stage's settling part; 0 = none */
 } setup_t;
 
 /* One coarse stage of 8 iterations, ADADELTA, every emitter, window 3. */
@@ -206,7 +207,7 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const setup_t *s) {
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, s->interval);
   for (int i = 0; r == HETINV_SUCCESS && i < s->stages; ++i) {
     hetinv_stage_t st = {sizeof st, s->maps[i], s->iterations[i], NULL, NULL, s->epsilon_start[i],
-                         s->stage_window[i]};
+                         s->stage_window[i], s->settle_epsilon[i], s->settle_fraction[i]};
     r = hetinv_optimizer_add_stage(opt, &st);
   }
   return r;
@@ -425,7 +426,7 @@ static void configuration_is_frozen_once_run(void **state) {
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 3));
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 0, 5));
   assert_message_contains("sigma_s");
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_add_stage(opt, &st));
   double v = 0;
   assert_ok(hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, &v));
@@ -446,7 +447,7 @@ static void stage_and_create_errors(void **state) {
   hetinv_measurements_destroy(&empty);
 
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL, 0.0, 0};
+  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
   assert_message_contains("size");
   st.size = sizeof st;
@@ -589,6 +590,17 @@ static void adadelta_steps_with_the_stage_epsilon(void **state) {
   st.epsilon_start = 0.0; /* the tunable throughout */
   h.opt.stage_iteration = 0;
   assert_true(hv_stage_epsilon(&h.opt) == 0.01);
+  /* A settling part: the last round(0.3·8) = 2 iterations at 0.002, after
+   * epsilon_start's fall. */
+  st.epsilon_start = 0.05;
+  st.settle_epsilon = 0.002;
+  st.settle_fraction = 0.3;
+  assert_int_equal(hv_stage_settle_from(&st), 6);
+  const double settled[8] = {0.05, 0.04, 0.03, 0.02, 0.01, 0.01, 0.002, 0.002};
+  for (int t = 0; t < 8; ++t) {
+    h.opt.stage_iteration = t;
+    assert_close(hv_stage_epsilon(&h.opt), settled[t], 1e-15);
+  }
 }
 
 /* SGD, AdaGrad and Adam in scaled coordinates, with projection. */
@@ -933,7 +945,7 @@ static void the_margin_widens_each_range_within_physics(void **state) {
     assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_G, -0.999, 0.5));
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_BOX_MARGIN, 0.5));
     if (c < 2) assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, expect[c].coordinates));
-    hetinv_stage_t st = {sizeof st, c < 2 ? p->identity : g_map, 1, NULL, NULL, 0.0, 0};
+    hetinv_stage_t st = {sizeof st, c < 2 ? p->identity : g_map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
     assert_ok(hetinv_optimizer_add_stage(opt, &st));
     assert_ok(hv_optimizer_alloc_stage_arrays(opt, 4));
     for (size_t i = 0; i < 4; ++i) {
@@ -963,7 +975,7 @@ static void mean_ratio_pairs_each_cells_sigmas(void **state) {
     assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_A, floor_zero ? 0.0 : 0.01, 1.0));
     assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 1.0, 10.0));
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, HETINV_COORDINATES_LOG_MEAN_RATIO));
-    hetinv_stage_t st = {sizeof st, map, 1, NULL, NULL, 0.0, 0};
+    hetinv_stage_t st = {sizeof st, map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
     assert_ok(hetinv_optimizer_add_stage(opt, &st));
     assert_ok(hv_optimizer_alloc_stage_arrays(opt, k));
     size_t pairs = 0;
@@ -990,7 +1002,7 @@ static void frozen_entries_never_move(void **state) {
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, SIGMA_HI));
   const uint8_t frozen[4] = {1, 0, 0, 1};
-  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL, 0.0, 0};
+  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL, 0.0, 0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   pi_log_t *log = calloc(1, sizeof *log);
   log->opt = opt;
@@ -1014,7 +1026,7 @@ static void masked_values_give_no_gradient(void **state) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_METHOD, method));
     uint8_t *mask = calloc(p->count, 1);
-    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask, 0.0, 0};
+    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask, 0.0, 0, 0.0, 0.0};
     assert_ok(hetinv_optimizer_add_stage(opt, &st));
     free(mask); /* copied */
     assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
@@ -1118,7 +1130,7 @@ static void stages_run_their_counts_with_right_progress(void **state) {
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 4));
-  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL, 0.0, 0}, b = {sizeof b, p->identity, 0, NULL, NULL, 0.0, 0};
+  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL, 0.0, 0, 0.0, 0.0}, b = {sizeof b, p->identity, 0, NULL, NULL, 0.0, 0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &a));
   assert_ok(hetinv_optimizer_add_stage(opt, &b));
   pi_log_t *log = calloc(1, sizeof *log);
@@ -1162,7 +1174,7 @@ static void iterations_default_is_100(void **state) {
   assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL, 0.0, 0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL, 0.0, 0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   stopper_t s = {.stop_at = -1};
   assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &s));
@@ -1187,7 +1199,7 @@ static void a_plateau_ends_a_stage_early(void **state) {
   /* Tolerance 1: no decrease can beat it, so each stage ends after 2·window. */
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 3));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 1));
-  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL, 0.0, 0}, b = {sizeof b, p->identity, 50, NULL, NULL, 0.0, 0};
+  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL, 0.0, 0, 0.0, 0.0}, b = {sizeof b, p->identity, 50, NULL, NULL, 0.0, 0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &a));
   assert_ok(hetinv_optimizer_add_stage(opt, &b));
   pi_log_t *log = calloc(1, sizeof *log);
@@ -1210,7 +1222,7 @@ static void a_plateau_ends_a_stage_early(void **state) {
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 2));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 0));
   uint8_t *mask = calloc(p->count, 1);
-  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask, 0.0, 0};
+  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask, 0.0, 0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &c));
   free(mask);
   assert_ok(hetinv_optimizer_run(opt, p->est, &why));
@@ -1296,7 +1308,7 @@ static void a_stage_epsilon_start_changes_only_the_first_half(void **state) {
   setup_t t = coarse_setup(p);
   t.stages = 0;
   hetinv_optimizer_t *opt = make_optimizer(p, &t);
-  hetinv_stage_t v1 = {HETINV_STAGE_SIZE_V1, p->coarse, 8, NULL, NULL, 0.05, 5};
+  hetinv_stage_t v1 = {HETINV_STAGE_SIZE_V1, p->coarse, 8, NULL, NULL, 0.05, 5, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &v1));
   assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
   capture(opt, 1, &o[3]);
@@ -1305,16 +1317,72 @@ static void a_stage_epsilon_start_changes_only_the_first_half(void **state) {
   const double bad[3] = {-0.01, 1.5, (double)NAN};
   for (int i = 0; i < 3; ++i) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, bad[i], 0};
+    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, bad[i], 0, 0.0, 0.0};
     assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
     assert_message_contains("epsilon_start");
     hetinv_optimizer_destroy(&opt);
   }
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, -1};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, -1, 0.0, 0.0};
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
   assert_message_contains("average_window is -1");
   hetinv_optimizer_destroy(&opt);
+  free(o);
+}
+
+/* A settling part at the tunable's ε whose length is the window runs
+ * bitwise as a stage without one; at a smaller ε it moves the run; with
+ * the stage's window 0 its result averages the settling iterates alone; a
+ * caller built against the second hetinv_stage_t passes its smaller size
+ * and the settling members are not read; bad values are refused. */
+static void a_stage_settles_at_its_own_epsilon(void **state) {
+  const problem_t *p = *state;
+  outcome_t *o = calloc(4, sizeof *o);
+  setup_t s = coarse_setup(p);
+  reference_run(p, &s, 1, &o[0]);
+  s.settle_epsilon[0] = 0.01; /* the tunable's default */
+  s.settle_fraction[0] = 3.0 / 8; /* 3 iterates: the ring's window */
+  reference_run(p, &s, 1, &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  s.settle_epsilon[0] = 0.002;
+  reference_run(p, &s, 1, &o[2]);
+  assert_true(memcmp(o[0].pi, o[2].pi, sizeof o[0].pi) != 0);
+  /* 2 settling iterates under the ring's 3: their mean, not the ring's. */
+  s.settle_fraction[0] = 0.25;
+  s.settle_epsilon[0] = 0.01;
+  hetinv_optimizer_t *opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  capture(opt, 1, &o[3]);
+  hetinv_optimizer_destroy(&opt);
+  assert_memory_equal(o[0].pi, o[3].pi, sizeof o[0].pi);
+  s.stage_window[0] = 2;
+  s.settle_epsilon[0] = 0.0;
+  s.settle_fraction[0] = 0.0;
+  reference_run(p, &s, 1, &o[1]);
+  assert_memory_equal(o[1].avg, o[3].avg, sizeof o[1].avg);
+  assert_true(memcmp(o[0].avg, o[3].avg, sizeof o[0].avg) != 0);
+  /* The second version's size: the settling members are past it, unread. */
+  setup_t t = coarse_setup(p);
+  t.stages = 0;
+  opt = make_optimizer(p, &t);
+  hetinv_stage_t v2 = {HETINV_STAGE_SIZE_V2, p->coarse, 8, NULL, NULL, 0.0, 0, -5.0, 7.0};
+  assert_ok(hetinv_optimizer_add_stage(opt, &v2));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  capture(opt, 1, &o[1]);
+  hetinv_optimizer_destroy(&opt);
+  assert_same_outcome(&o[0], &o[1]);
+  const struct { double epsilon, fraction; const char *named; } bad[] = {
+      {-0.01, 0.5, "settle_epsilon is -0.01"}, {1.5, 0.5, "settle_epsilon is 1.5"},
+      {(double)NAN, 0.5, "settle_epsilon is nan"}, {0.001, 0.0, "settle_fraction is 0"},
+      {0.001, 1.0, "settle_fraction is 1"}, {0.001, (double)NAN, "settle_fraction is nan"},
+      {0.0, 0.5, "settle_fraction is 0.5"}};
+  for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+    assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, bad[i].epsilon, bad[i].fraction};
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
+    assert_message_contains(bad[i].named);
+    hetinv_optimizer_destroy(&opt);
+  }
   free(o);
 }
 
@@ -2158,7 +2226,7 @@ static void layerwise_stages_free_one_layer_each(void **state) {
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, 1));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 0.05));
   /* A first coarse stage, then three layers of 1/3 mm. */
-  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL, 0.0, 0};
+  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL, 0.0, 0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &first));
   const double h = 1.0 / 3;
   assert_ok(hetinv_optimizer_add_layerwise_stages(opt, p.identity, h, 3, 4));
@@ -2244,7 +2312,7 @@ static void null_arguments_are_refused(void **state) {
   s.iterations[0] = 1;
   opt = make_optimizer(p, &s);
   double v = 0, pi[1];
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_set_param(NULL, HETINV_OPTIMIZER_DECAY, 0.5));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(NULL, HETINV_OPTIMIZER_DECAY, &v));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, NULL));
@@ -2325,6 +2393,7 @@ int main(void) {
       cmocka_unit_test(the_callback_stops_and_run_continues),
       cmocka_unit_test(the_next_stage_starts_from_the_average),
       cmocka_unit_test(a_stage_epsilon_start_changes_only_the_first_half),
+      cmocka_unit_test(a_stage_settles_at_its_own_epsilon),
       cmocka_unit_test(a_stage_window_sets_what_it_hands_on),
       cmocka_unit_test(killed_runs_resume_bitwise),
       cmocka_unit_test(resume_refuses_another_configuration),

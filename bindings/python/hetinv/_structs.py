@@ -132,6 +132,8 @@ class Stage(_Sized):
         ("value_mask", ctypes.POINTER(ctypes.c_uint8)),
         ("epsilon_start", ctypes.c_double),
         ("average_window", ctypes.c_int32),
+        ("settle_epsilon", ctypes.c_double),
+        ("settle_fraction", ctypes.c_double),
     ]
 
 

@@ -103,20 +103,23 @@ class Optimizer(Handle):
         return self
 
     def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None, epsilon_start=0.0,
-                  average_window=0):
+                  average_window=0, settle_epsilon=0.0, settle_fraction=0.0):
         """Append a stage on `param_map`. frozen: param_map.size flags
         (true = entry kept fixed); value_mask: value_count flags (false =
         value left out). iterations 0: the "iterations" tunable. epsilon_start:
         ADADELTA's relative epsilon at the stage's start, falling linearly to
         the "epsilon" tunable over its first half; 0: the tunable throughout.
         average_window: the trailing iterates the stage's result averages
-        (at most the "average_window" tunable); 0: that tunable."""
+        (at most the "average_window" tunable); 0: that tunable, or the
+        settling part. settle_epsilon: ADADELTA's relative epsilon over the
+        stage's last settle_fraction of iterations (0: none)."""
         me = self._ptr
         handle_arg(param_map, ParamMap, "param_map")
         f = _mask_bytes(frozen, param_map.size, "frozen")
         m = _mask_bytes(value_mask, self._measurements.value_count, "value_mask")
         stage = _structs_stage(param_map, integer(iterations, "iterations"), f, m, number(epsilon_start, "epsilon_start"),
-                               integer(average_window, "average_window"))
+                               integer(average_window, "average_window"), number(settle_epsilon, "settle_epsilon"),
+                               number(settle_fraction, "settle_fraction"))
         check(lib.optimizer_add_stage(me, ctypes.byref(stage)))
         self._borrow(param_map)
         self._maps.append(param_map)
@@ -241,7 +244,8 @@ class Optimizer(Handle):
         return _arrays.copy_from(ptr, n.value if ptr else 0)
 
 
-def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start, average_window):
+def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start, average_window, settle_epsilon,
+                   settle_fraction):
     from ._structs import Stage
 
     s = Stage()
@@ -251,4 +255,6 @@ def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start, ave
     s.value_mask = value_mask.ptr
     s.epsilon_start = epsilon_start
     s.average_window = average_window
+    s.settle_epsilon = settle_epsilon
+    s.settle_fraction = settle_fraction
     return s
