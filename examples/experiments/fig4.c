@@ -218,17 +218,6 @@ static void make_scene(recon_scene_t *sc, const fig4_options_t *o, int c, int v)
      * keeps 2000: its longer runs drifted where its data are weak (tried
      * without the prior). */
     sc->iterations = c == RECON_PATHLENGTH ? 2000 : 4000;
-    /* (2): 4000 iterations at ε 0.0015 to approach, then 2000 at 0.0005
-     * to settle, the result averaging those alone. From the truth its far
-     * σs(1 − g) came out +5 % at 0.0015 and +2 % at 0.0005; a smaller ε
-     * from the flat start approached too slowly. On volumes 1-2 the
-     * settling part lowered all 12 figures (docs/results/fig4.md); about
-     * 1.5× the cost. */
-    if (c == RECON_STEADY) {
-      sc->iterations = 6000;
-      sc->settle_epsilon = 0.0005;
-      sc->settle_fraction = 1.0 / 3.0;
-    }
     sc->photons = 5000;
     /* Half the reduced scene's ε: at 1875 unknowns the recovery's error
      * follows ADADELTA's step (ε 0.01: 8.2 / 14.5 / 10.9 % mean; 0.003:
