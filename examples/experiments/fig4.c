@@ -77,8 +77,8 @@
  * (optimizer.epsilon_start), --coarse-epsilon-start E each coarser stage
  * (optimizer.coarse_epsilon_start); --settle-epsilon E --settle-fraction F
  * run the finest stage's last fraction F at ε E and average those
- * iterates (optimizer.settle_epsilon, settle_fraction; --settle-epsilon 0:
- * none); --coarse-window N makes each coarse stage hand
+ * iterates (optimizer.settle_epsilon, settle_fraction; both or neither;
+ * off by default); --coarse-window N makes each coarse stage hand
  * on the mean of its last N iterates (optimizer.coarse_average_window;
  * default 150 with --full; 0, the reduced default, means the run's window,
  * which at full size is longer than a coarse stage, so it would hand on

@@ -146,7 +146,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->epsilon_start) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--settle-epsilon") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1.0, &o->settle_epsilon) < 0) return 2;
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->settle_epsilon) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--settle-fraction") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-6, 0.999999, &o->settle_fraction) < 0) return 2;
@@ -224,6 +224,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
   if (o->bound && o->bound_only) return usage("--bound and --bound-only exclude each other");
   if (o->write_scenes && (o->bound || o->bound_only)) return usage("--write-scenes writes set-ups; it computes no bound");
   if (o->fit && (o->write_scenes || o->bound_only)) return usage("--fit-check needs the cells' recoveries");
+  if ((o->settle_epsilon > 0.0) != (o->settle_fraction > 0.0)) {
+    return usage("--settle-epsilon and --settle-fraction go together");
+  }
   if (o->volumes < 0) o->volumes = o->full ? 5 : 2;
   if (o->scale < 0.0) o->scale = o->full ? 0.1 : 1.0;
   return 0;
@@ -245,12 +248,10 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->stage_results) sc->stage_results = true;
   if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
   if (o->coarse_epsilon_start > 0.0) sc->coarse_epsilon_start = o->coarse_epsilon_start;
-  /* --settle-epsilon 0 turns a default settling part off. */
-  if (o->settle_epsilon >= 0.0) {
+  if (o->settle_epsilon > 0.0) {
     sc->settle_epsilon = o->settle_epsilon;
-    if (o->settle_epsilon == 0.0) sc->settle_fraction = 0.0;
+    sc->settle_fraction = o->settle_fraction;
   }
-  if (o->settle_fraction > 0.0) sc->settle_fraction = o->settle_fraction;
   if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;
   if (o->loss_clip >= 0.0) sc->loss_clip = o->loss_clip;
   if (o->loss_clip_errors >= 0) sc->loss_clip_errors = o->loss_clip_errors;

@@ -429,14 +429,15 @@ hetinv_result_t hv_optimizer_begin_stage(hetinv_optimizer_t *opt) {
 void hv_optimizer_average(const hetinv_optimizer_t *opt, double *out) {
   size_t k = opt->k;
   int32_t count = opt->ring_count;
-  int32_t stage_window = 0;
+  int64_t stage_window = 0;
   if (opt->stage < opt->stage_count) {
     const hv_stage_t *st = &opt->stages[opt->stage];
     stage_window = st->average_window;
-    /* Window 0 with a settling part: that part's iterates. */
-    if (stage_window == 0) stage_window = (int32_t)(st->iterations - hv_stage_settle_from(st));
+    /* Window 0 with a settling part: that part's iterates (int64_t: a
+     * stage may run more than 2^31 iterations). */
+    if (stage_window == 0) stage_window = st->iterations - hv_stage_settle_from(st);
   }
-  if (stage_window > 0 && stage_window < count) count = stage_window;
+  if (stage_window > 0 && stage_window < count) count = (int32_t)stage_window;
   if (count == 0) {
     memcpy(out, opt->pi, k * sizeof(double));
   } else {
