@@ -121,8 +121,22 @@ static void write_render_scene(FILE *f, const recon_scene_t *sc, const recon_ima
             r + 1 < im->row_count ? "," : "");
   }
   /* The simulated render's photons, seed and stream: the same values. */
-  fprintf(f, "  ],\n  \"photons\": %lld,\n  \"seed\": %llu,\n  \"estimator\": {\"stream\": %d}\n}\n",
+  fprintf(f, "  ],\n  \"photons\": %lld,\n  \"seed\": %llu,\n  \"estimator\": {\"stream\": %d}",
           (long long)sc->truth_photons, (unsigned long long)sc->seed, RECON_TRUTH_STREAM);
+  /* And its camera: the same draws, value by value (recon_simulate). */
+  if (sc->noise) {
+    const hetinv_noise_model_t *m = &sc->noise_model;
+    fprintf(f, ",\n  \"noise\": {\"full_well\": ");
+    put_number(f, m->full_well);
+    fprintf(f, ", \"read_noise\": ");
+    put_number(f, m->read_noise);
+    fprintf(f, ", \"exposure\": ");
+    put_number(f, m->exposure);
+    fprintf(f, ", \"auto_level\": ");
+    put_number(f, m->auto_level);
+    fprintf(f, ", \"seed\": %llu}", (unsigned long long)m->seed);
+  }
+  fprintf(f, "\n}\n");
 }
 
 static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const recon_imaging_t *im) {
@@ -233,6 +247,19 @@ int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *sc, const het
   if (sc->loss_clip_errors != RECON_CLIP_DATA) {
     snprintf(msg, n, "estimator.loss_clip_errors: \"%s\" needs simulated data, and a preset reads its data from "
              "files; write it with \"data\"", recon_clip_errors_names[sc->loss_clip_errors]);
+    return -1;
+  }
+  /* hetinv-render writes the render's errors and its camera's by the plain
+   * noise model: these variants of the simulation's errors have no file form. */
+  if ((sc->noise && sc->expected_camera_errors) || sc->pooled_errors || sc->independent_errors) {
+    snprintf(msg, n, "acquisition.%s: the simulation's variant of its errors has no file form (hetinv-render "
+             "writes the render's errors, and its camera's by the plain noise model); write the preset without it",
+             sc->pooled_errors ? "pooled_errors" : sc->independent_errors ? "independent_errors" : "expected_camera_errors");
+    return -1;
+  }
+  if (sc->noise && sc->noise_model.seed > (UINT64_C(1) << 53)) {
+    snprintf(msg, n, "acquisition.seed: %llu is above 2^53, the largest a render scene holds (use a smaller one)",
+             (unsigned long long)sc->noise_model.seed);
     return -1;
   }
   /* The render scene's seed is a JSON integer, exact up to 2^53. */

@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "outdir.h"
+#include "camera.h"
 #include "output.h"
 #include "scene.h"
 
@@ -231,6 +232,7 @@ int main(int argc, char **argv) {
     goto fail;
   }
 
+  if (camera_record(&sc, ctx, values, values + count, &jr) < 0) goto fail;
   if (images && output_write_images(&sc, ctx, &res, outdir, log, &jr) < 0) goto fail;
   if (opt.write_medium && write_medium(&sc, ctx, outdir, log, &jr) < 0) goto fail;
   output_print_summary(&sc, &res, log);

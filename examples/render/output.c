@@ -115,7 +115,14 @@ static void set_attributes(attrs_t *a, const scene_t *sc, const render_result_t 
       "standard error of each value of the image of the same name without _stderr",
       "ballistic (never scattered) light leaving each pixel exactly along the sensor direction: "
       "power per unit area per unit emitted power, the coefficient of a Dirac in direction"};
-  attr_s(a, "hetinv:content", contents[kind]);
+  static const char *const recorded[] = {
+      "a simulated camera's recording (the scene's \"noise\", attribute hetinv:noise) of the Monte Carlo "
+      "estimate of the radiance leaving the face toward the sensor, per unit emitted power, one channel per "
+      "pathlength bin; ballistic light excluded",
+      "standard error of each value of the image of the same name without _stderr: the camera's and the "
+      "Monte Carlo estimate's combined, hypot(camera, render)"};
+  attr_s(a, "hetinv:content", sc->has_noise && kind != STACK_BALLISTIC ? recorded[kind] : contents[kind]);
+  if (sc->has_noise && kind != STACK_BALLISTIC) attr_json(a, "hetinv:noise", cJSON_GetObjectItemCaseSensitive(sc->root, "noise"));
   attr_s(a, "hetinv:libraryVersion", hetinv_version_string());
   attr_s(a, "hetinv:scene", sc->path);
   attr_s(a, "hetinv:row", rw->name);

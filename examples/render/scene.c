@@ -34,6 +34,42 @@ void scene_face_axes(hetinv_face_t face, int *u, int *v) {
   *v = a == 2 ? 1 : 2;
 }
 
+/* "noise": the camera that records the render (camera.h). The library
+ * checks the model again when it applies it; read here so that a bad
+ * value is named before the render runs. */
+static int read_noise(scene_t *sc, jr_t *jr) {
+  const cJSON *o = NULL;
+  int r = jr_object(jr, sc->root, "", "noise", JR_OPTIONAL, &o);
+  if (r <= 0) return r;
+  static const char *const allowed[] = {"full_well", "read_noise", "exposure", "auto_level", "seed", NULL};
+  if (jr_check_object(jr, o, "noise", allowed) < 0) return -1;
+  hetinv_noise_model_t *m = &sc->noise;
+  hetinv_noise_model_default(m);
+  if (jr_positive(jr, o, "noise", "full_well", JR_OPTIONAL, &m->full_well) < 0) return -1;
+  if (!(m->full_well <= HETINV_NOISE_FULL_WELL_MAX)) {
+    return jr_fail(jr, "noise.full_well", "is %g; expected at most %g electrons", m->full_well,
+                   HETINV_NOISE_FULL_WELL_MAX);
+  }
+  if (jr_number(jr, o, "noise", "read_noise", JR_OPTIONAL, &m->read_noise) < 0) return -1;
+  if (!(m->read_noise >= 0.0 && isfinite(m->read_noise))) {
+    return jr_fail(jr, "noise.read_noise", "is %g; expected a finite number of electrons >= 0", m->read_noise);
+  }
+  if (jr_number(jr, o, "noise", "exposure", JR_OPTIONAL, &m->exposure) < 0) return -1;
+  if (!(m->exposure >= 0.0 && isfinite(m->exposure))) {
+    return jr_fail(jr, "noise.exposure", "is %g; expected electrons per unit of value > 0, or 0 for automatic",
+                   m->exposure);
+  }
+  if (jr_number(jr, o, "noise", "auto_level", JR_OPTIONAL, &m->auto_level) < 0) return -1;
+  if (!(m->auto_level > 0.0 && m->auto_level <= 1.0)) {
+    return jr_fail(jr, "noise.auto_level", "is %g; expected a fraction of the full well in (0, 1]", m->auto_level);
+  }
+  int64_t seed = 0;
+  if (jr_integer(jr, o, "noise", "seed", JR_OPTIONAL, 0, JSON_INT_MAX, &seed) < 0) return -1;
+  m->seed = (uint64_t)seed;
+  sc->has_noise = 1;
+  return 0;
+}
+
 static int read_run_settings(scene_t *sc, jr_t *jr) {
   const cJSON *root = sc->root;
   int64_t v = 0;
@@ -45,6 +81,8 @@ static int read_run_settings(scene_t *sc, jr_t *jr) {
   v = 0;
   if ((r = jr_integer(jr, root, "", "threads", JR_OPTIONAL, 0, HETINV_MAX_THREADS, &v)) < 0) return r;
   sc->threads = (int32_t)v;
+
+  if (read_noise(sc, jr) < 0) return -1;
 
   const cJSON *est = NULL;
   if ((r = jr_object(jr, root, "", "estimator", JR_OPTIONAL, &est)) < 0) return r;
@@ -92,7 +130,7 @@ int scene_load_text(scene_t *sc, const char *path, char *text, jr_t *jr) {
 static int scene_parse(scene_t *sc, jr_t *jr) {
   static const char *const allowed[] = {
       "description", "unit", "box", "eta", "eta_out", "medium", "emitters", "sensors",
-      "pathlength", "pathlengths", "measurements", "photons", "seed", "threads", "estimator", NULL};
+      "pathlength", "pathlengths", "measurements", "photons", "seed", "threads", "estimator", "noise", NULL};
   if (jr_check_object(jr, sc->root, "", allowed) < 0) return -1;
   const char *s = NULL;
   if (jr_string(jr, sc->root, "", "description", JR_OPTIONAL, &s) < 0) return -1;

@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include <hetinv/hetinv.h>
+#include <hetinv/acquire.h>
 #include <hetinv/estimator.h>
 #include <hetinv/measurement.h>
 #include <hetinv/sampling.h>
@@ -75,6 +76,8 @@ typedef struct scene {
   int32_t threads;         /* 0: all */
   int estimator_given[SCENE_ESTIMATOR_KEYS];   /* "estimator" members given, */
   double estimator_value[SCENE_ESTIMATOR_KEYS]; /* in the order of the docs */
+  int has_noise;           /* "noise": a camera records the render (camera.h) */
+  hetinv_noise_model_t noise;
 
   /* The medium. */
   char unit[32];           /* length unit, for the outputs' attributes */
