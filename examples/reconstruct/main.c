@@ -213,6 +213,10 @@ static int run(int argc, char **argv, outdir_t *dir) {
     printf("hetinv-reconstruct: %s: %d x %d x %d voxels, %d rows, %zu values read from %s\n", sc.name,
            (int)sc.grid[0], (int)sc.grid[1], (int)sc.grid[2], (int)hetinv_measurements_row_count(im.set),
            hetinv_measurements_value_count(im.set), sc.measured);
+    if (sc.dark_rows > 0) {
+      printf("hetinv-reconstruct: %d of %d rows left out: no photon reached them (zeros with zero errors)\n",
+             (int)sc.dark_rows, (int)hetinv_measurements_row_count(im.set));
+    }
     if (isfinite(sc.saturation)) {
       printf("hetinv-reconstruct: acquisition.saturation %g: %zu of %zu values at or above it masked\n",
              sc.saturation, sc.saturated, hetinv_measurements_value_count(im.set));

@@ -91,8 +91,9 @@ static int check_rows(const scene_t *scene, char *msg, size_t msg_size) {
 }
 
 /* Reads every row's values (and standard errors) and sets them, with
- * weights and a full mask, on the set; then masks values at or above
- * sc->saturation (their count in sc->saturated). */
+ * weights and a mask (dark rows and unresolved values out), on the set;
+ * then masks values at or above sc->saturation (their count in
+ * sc->saturated). */
 static int read_values(hetinv_context_t *ctx, recon_scene_t *sc, const scene_t *scene,
                        char *msg, size_t msg_size) {
   size_t n = hetinv_measurements_value_count(scene->set);
@@ -118,6 +119,21 @@ static int read_values(hetinv_context_t *ctx, recon_scene_t *sc, const scene_t *
   hetinv_result_t r = HETINV_SUCCESS;
   if (status == 0) {
     memset(mask, 1, n);
+    sc->dark_rows = 0;
+    /* A row that no photon reached, zeros with zero errors (as hetinv-render
+     * writes it, camera or not), is left out as the simulated acquisition
+     * leaves it out: with no error its weight would be arbitrary. Without
+     * error files a dark row stays (its weights are not the errors'). */
+    for (int row = 0; sc->std_errors[0] != '\0' && row < scene->row_count; ++row) {
+      size_t offset = 0;
+      int32_t pixels = 0, bins = 0;
+      hetinv_measurements_row_layout(scene->set, row, &offset, &pixels, &bins);
+      size_t len = (size_t)pixels * (size_t)bins;
+      bool dark = true;
+      for (size_t i = offset; dark && i < offset + len; ++i) dark = v[i] == 0.0 && se[i] == 0.0;
+      if (dark) memset(mask + offset, 0, len);
+      sc->dark_rows += dark;
+    }
     recon_mask_unresolved(v, se, mask, n, sc->min_snr);
     recon_set_weights(sc->weighting, v, se, NULL, w, n);
     r = hetinv_measurements_set_values(scene->set, v, se, n);

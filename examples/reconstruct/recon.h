@@ -123,6 +123,7 @@ typedef struct recon_scene {
   int gain_mode;                /* enum hetinv_gain_mode_id: unknown calibration gain(s) */
   double saturation;            /* values >= this are masked; +inf = none */
   size_t saturated;             /* set by recon_files_load: values at or above it */
+  int32_t dark_rows;            /* set by recon_files_load: rows of zeros with zero errors, left out */
   bool has_box;                 /* the render scene's box (else the cube of `size`) */
   double box_min[3], box_max[3], eta_out;
   bool has_truth;               /* false (files without "truth"): no errors reported */
