@@ -51,6 +51,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->min_snr != 0.0) {
     key_append(key, key_size, " min_snr=%.17g", sc->min_snr);
   }
+  if (sc->min_snr_errors != RECON_SNR_DATA) {
+    key_append(key, key_size, " min_snr_errors=%s", recon_snr_errors_names[sc->min_snr_errors]);
+  }
   if (sc->epsilon != 0.003) {
     key_append(key, key_size, " epsilon=%.17g", sc->epsilon);
   }

@@ -14,7 +14,7 @@
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]
  *               [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]
- *               [--min-snr S] [--threads N] [-o DIR] [--quiet]
+ *               [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]
  *               [--fit-replicates N]
@@ -132,7 +132,9 @@
  * the rest in ln π (optimizer.coordinates). --min-snr S leaves out of
  * the loss and the bound every value whose standard error exceeds
  * value/S (acquisition.min_snr of hetinv-reconstruct; default 3, 0 keeps
- * every value).
+ * every value); --min-snr-errors residual tests the residual's standard
+ * error instead, the data's and the optimizer's render's at --photons
+ * (acquisition.min_snr_errors; default data).
  *
  * --fit-check is the data-or-optimizer test by the loss: for each cell it
  * renders the truth and the stored recovery at --fit-photons per source

@@ -19,7 +19,7 @@ static int usage(const char *what) {
           "                   [--expected-camera-errors] [--residual-weights]\n"
           "                   [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]\n"
           "                   [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]\n"
-          "                   [--min-snr S] [--threads N] [-o DIR] [--quiet]\n"
+          "                   [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]\n"
           "                   [--fit-replicates N]\n",
@@ -62,7 +62,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .truth_photons = -1, .coarse_window = -1,
       .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4,
       .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0, .coarse_epsilon_start = -1.0, .settle_epsilon = -1.0, .settle_fraction = -1.0,
-      .loss_clip = -1.0, .loss_clip_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
+      .loss_clip = -1.0, .loss_clip_errors = -1, .min_snr_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
       .coordinates = -1,
   };
   for (int i = 1; i < argc; ++i) {
@@ -165,6 +165,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       o->expected_camera_errors = true;
     } else if (strcmp(a, "--residual-weights") == 0) {
       o->residual_weights = true;
+    } else if (strcmp(a, "--min-snr-errors") == 0) {
+      if (recon_parse_choice("hetinv-fig4", a, next, recon_snr_errors_names, &o->min_snr_errors) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--loss-clip-errors") == 0) {
       if (recon_parse_choice("hetinv-fig4", a, next, recon_clip_errors_names, &o->loss_clip_errors) < 0) return 2;
       ++i;
@@ -255,6 +258,7 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;
   if (o->loss_clip >= 0.0) sc->loss_clip = o->loss_clip;
   if (o->loss_clip_errors >= 0) sc->loss_clip_errors = o->loss_clip_errors;
+  if (o->min_snr_errors >= 0) sc->min_snr_errors = o->min_snr_errors;
   if (o->smoothness >= 0.0) sc->smoothness = o->smoothness;
   if (o->multiscale >= 0.0) sc->multiscale = o->multiscale;
   if (o->box_margin >= 0.0) sc->box_margin = o->box_margin;

@@ -18,7 +18,7 @@ typedef struct fig4_options {
   int64_t iterations, photons, minibatch, grid, threads, truth_photons, coarse_window;
   int64_t bound_photons, bound_replicates, fit_photons, fit_replicates;
   double scale, epsilon, min_snr, decay, coarse_fraction, epsilon_start, coarse_epsilon_start, settle_epsilon, settle_fraction, loss_clip, smoothness, multiscale, box_margin;
-  int coordinates, loss_clip_errors;
+  int coordinates, loss_clip_errors, min_snr_errors;
   /* --coarse-levels: the coarser stages' cells per axis, increasing; -1:
    * the scene's schedule, 0: none (the finest level alone). */
   int32_t coarse_level_count, coarse_levels[RECON_MAX_LEVELS - 1];

@@ -140,14 +140,18 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
      * high (at 20 expected electrons and read noise 5, those kept average
      * 26 % above their expectation), and a test of the data's own render
      * the dim ones its photons made bright. */
-    recon_mask_unresolved(sc->expected_camera_errors ? reference : v, se, mask, n, sc->min_snr);
     /* The residual's render variance: the optimizer renders sc->photons
      * per source where the data had truth_photons, so its Monte Carlo
      * variance is the data's scaled by their ratio. mc is no longer needed
      * as such and holds it. */
     double scale = (double)sc->truth_photons / (double)sc->photons;
     bool residual = sc->weighting == RECON_WEIGHT_RESIDUAL, clip_residual = sc->loss_clip_errors != RECON_CLIP_DATA;
-    for (size_t i = 0; (residual || clip_residual) && i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
+    bool snr_residual = sc->min_snr_errors == RECON_SNR_RESIDUAL;
+    for (size_t i = 0; (residual || clip_residual || snr_residual) && i < n; ++i) mc[i] = mc[i] * mc[i] * scale;
+    if (snr_residual) { /* tested at the residual's error: w holds it for now */
+      for (size_t i = 0; i < n; ++i) w[i] = sqrt(se[i] * se[i] + mc[i]);
+    }
+    recon_mask_unresolved(sc->expected_camera_errors ? reference : v, snr_residual ? w : se, mask, n, sc->min_snr);
     recon_set_weights(sc->weighting, v, se, residual ? mc : NULL, w, n);
     r = hetinv_measurements_set_values(im->set, v, se, n);
     /* The clip at c residual standard errors, c·sqrt(se² + render

@@ -36,6 +36,7 @@ static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *
   /* The simulated data are a render at the scene's photons: its Monte Carlo
    * variance, scaled from this render's, is part of their noise. */
   const double mc_scale = (double)photons / (double)sc->truth_photons;
+  const double render_scale = (double)photons / (double)sc->photons; /* the optimizer's render */
   const uint8_t *set_mask = hetinv_measurements_mask(im->set);
   int32_t rows = hetinv_measurements_row_count(im->set);
   for (int32_t row = 0; r == HETINV_SUCCESS && row < rows; ++row) {
@@ -64,8 +65,11 @@ static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *
       /* A noiseless camera (read noise 0) still counts photons: at least
        * one electron's variance keeps dark pixels finite. */
       var[off + i] = (e > 1.0 ? e : 1.0) / (exposure * exposure) + mc[off + i] * mc[off + i] * mc_scale;
-      /* As the loss: a value the data would not resolve is left out. */
-      mask[off + i] = set_mask[off + i] && !(clean[off + i] < sc->min_snr * sqrt(var[off + i]));
+      /* As the loss: a value the data (or with min_snr_errors "residual",
+       * the data and the optimizer's render) would not resolve is left out. */
+      double tested = var[off + i];
+      if (sc->min_snr_errors == RECON_SNR_RESIDUAL) tested += mc[off + i] * mc[off + i] * render_scale;
+      mask[off + i] = set_mask[off + i] && !(clean[off + i] < sc->min_snr * sqrt(tested));
     }
   }
   hetinv_estimator_destroy(&est);

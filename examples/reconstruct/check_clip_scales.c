@@ -16,24 +16,9 @@
 #include <stdbool.h>
 #include <stdio.h>
 
-#include <hetinv/hetinv.h>
+#include "check_channel.h"
 
-/* The channel `name` of `path` (n values), or NULL after a message. */
-static const float *channel(hetinv_context_t *ctx, const char *path, hetinv_image_t **img, const char *name,
-                            size_t *n) {
-  int32_t w = 0, h = 0, c = -1;
-  if (*img == NULL && hetinv_image_read_exr(ctx, path, img) != HETINV_SUCCESS) {
-    fprintf(stderr, "hetinv-clip-scales-check: %s\n", hetinv_context_last_error_message(ctx));
-    return NULL;
-  }
-  if (hetinv_image_find_channel(*img, name, &c) != HETINV_SUCCESS) {
-    fprintf(stderr, "hetinv-clip-scales-check: %s has no channel \"%s\"\n", path, name);
-    return NULL;
-  }
-  hetinv_image_get_size(*img, &w, &h, NULL);
-  *n = (size_t)w * (size_t)h;
-  return hetinv_image_channel_data(*img, c);
-}
+#define PROG "hetinv-clip-scales-check"
 
 int main(int argc, char **argv) {
   if (argc != 3) {
@@ -46,10 +31,10 @@ int main(int argc, char **argv) {
   hetinv_image_t *a = NULL, *b = NULL;
   int status = 1;
   size_t n = 0, nb = 0, checked = 0;
-  const float *below = channel(ctx, argv[1], &a, "clip_scale_below", &n);
-  const float *scale = below ? channel(ctx, argv[1], &a, "clip_scale_above", &n) : NULL;
-  const float *wa = scale ? channel(ctx, argv[1], &a, "weight", &n) : NULL;
-  const float *wb = wa ? channel(ctx, argv[2], &b, "weight", &nb) : NULL;
+  const float *below = check_channel(ctx, PROG, argv[1], &a, "clip_scale_below", &n);
+  const float *scale = below ? check_channel(ctx, PROG, argv[1], &a, "clip_scale_above", &n) : NULL;
+  const float *wa = scale ? check_channel(ctx, PROG, argv[1], &a, "weight", &n) : NULL;
+  const float *wb = wa ? check_channel(ctx, PROG, argv[2], &b, "weight", &nb) : NULL;
   if (wb && nb != n) fprintf(stderr, "hetinv-clip-scales-check: %zu values in %s, %zu in %s\n", n, argv[1], nb, argv[2]);
   double sum = 0.0;
   if (wb && nb == n) status = 0;

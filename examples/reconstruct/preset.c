@@ -249,6 +249,11 @@ int recon_preset_write(hetinv_context_t *ctx, const recon_scene_t *sc, const het
              "files; write it with \"data\"", recon_clip_errors_names[sc->loss_clip_errors]);
     return -1;
   }
+  if (sc->min_snr_errors != RECON_SNR_DATA) {
+    snprintf(msg, n, "acquisition.min_snr_errors: \"%s\" needs simulated data, and a preset reads its data from "
+             "files; write it with \"data\"", recon_snr_errors_names[sc->min_snr_errors]);
+    return -1;
+  }
   /* hetinv-render writes the render's errors and its camera's by the plain
    * noise model: these variants of the simulation's errors have no file form. */
   if ((sc->noise && sc->expected_camera_errors) || sc->pooled_errors || sc->independent_errors) {

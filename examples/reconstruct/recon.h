@@ -31,6 +31,7 @@ enum { RECON_TRUTH_MIXTURE, RECON_TRUTH_SMOKE, RECON_TRUTH_VOL };
  * optimizer's render's Monte Carlo variance (simulated data only). */
 enum { RECON_WEIGHT_VARIANCE, RECON_WEIGHT_RELATIVE, RECON_WEIGHT_UNIFORM, RECON_WEIGHT_RESIDUAL };
 enum { RECON_CLIP_DATA, RECON_CLIP_RESIDUAL, RECON_CLIP_RESIDUAL_ABOVE };
+enum { RECON_SNR_DATA, RECON_SNR_RESIDUAL };
 
 /* Photons of the simulated data come from their own stream, so the
  * optimizer never reuses the paths that made its data. */
@@ -42,6 +43,7 @@ enum { RECON_CLIP_DATA, RECON_CLIP_RESIDUAL, RECON_CLIP_RESIDUAL_ABOVE };
  * the order of their enums; NULL-terminated. */
 extern const char *const recon_weighting_names[];
 extern const char *const recon_clip_errors_names[];
+extern const char *const recon_snr_errors_names[];
 extern const char *const recon_method_names[];
 extern const char *const recon_coordinate_names[];
 
@@ -84,6 +86,12 @@ typedef struct recon_scene {
    * batch means underestimate (docs/results/fig4.md), and a 1/σ² weight then
    * lets a handful of such values rule the loss and its gradient. */
   double min_snr;
+  /* RECON_SNR_DATA: min_snr's test counts the data's standard error;
+   * RECON_SNR_RESIDUAL: the residual's, the data's and the optimizer's
+   * render's Monte Carlo error at sc->photons, so a value the data resolve
+   * but each iteration's render does not is left out too (simulated data
+   * only: the render's variance is the data's at their photons, scaled). */
+  int min_snr_errors;
   /* The Monte Carlo part of each simulated value's standard error from a
    * second, independent render of the truth (same photons), so that a
    * value's weight does not depend on its own draw: with the same render,

@@ -14,6 +14,7 @@ static const char *const PARAM_KEYS[] = {"sigma_a", "sigma_s", "g"};
 /* The JSON names of the enums, in their order (preset.c writes them). */
 const char *const recon_weighting_names[] = {"variance", "relative", "uniform", "residual", NULL};
 const char *const recon_clip_errors_names[] = {"data", "residual", "residual_above", NULL};
+const char *const recon_snr_errors_names[] = {"data", "residual", NULL};
 const char *const recon_method_names[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
 const char *const recon_coordinate_names[] = {"native", "reduced", "log", "log-reduced", "log-mean-ratio", NULL};
 
@@ -324,12 +325,20 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (got <= 0) return got;
   static const char *const allowed[] = {"noise", "full_well", "read_noise", "seed", "weighting",
                                         "photons", "measurements", "render_scene", "measured",
-                                        "std_errors", "gain", "saturation", "min_snr", "independent_errors",
-                                        "pooled_errors", "expected_camera_errors", NULL};
+                                        "std_errors", "gain", "saturation", "min_snr", "min_snr_errors",
+                                        "independent_errors", "pooled_errors", "expected_camera_errors", NULL};
   if (jr_check_object(jr, o, "acquisition", allowed) < 0) return -1;
   if (jr_number(jr, o, "acquisition", "min_snr", JR_OPTIONAL, &sc->min_snr) < 0) return -1;
   if (!(sc->min_snr >= 0.0 && sc->min_snr <= 1e6)) {
     return jr_fail(jr, "acquisition.min_snr", "is %g; expected a number from 0 to 1e6", sc->min_snr);
+  }
+  if (jr_choice(jr, o, "acquisition", "min_snr_errors", JR_OPTIONAL, recon_snr_errors_names, &sc->min_snr_errors) < 0) {
+    return -1;
+  }
+  /* (With "measurements" the mask is the stored run's, as min_snr's is.) */
+  if (sc->min_snr_errors != RECON_SNR_DATA && jr_get(o, "render_scene") != NULL) {
+    return jr_fail(jr, "acquisition.min_snr_errors", "\"%s\" needs simulated data (the render's variance at the "
+                   "data's photons); from files use \"data\"", recon_snr_errors_names[sc->min_snr_errors]);
   }
   if (read_simulation_flag(jr, o, "independent_errors", &sc->independent_errors) < 0 ||
       read_simulation_flag(jr, o, "pooled_errors", &sc->pooled_errors) < 0 ||
