@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "camera.h"
 #include "recon.h"
 
 void recon_set_weights(int weighting, const double *v, const double *se, const double *render_var, double *w,
@@ -101,8 +102,9 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
       continue;
     }
     bool lit = false;
-    for (size_t i = 0; i < len; ++i) lit = lit || clean[off + i] > 0.0;
-    if (!lit) { /* nothing reached this row: a dark frame of read noise only */
+    hetinv_noise_model_t model = sc->noise_model;
+    r = camera_shoot_row(ctx, &model, im->set, row, clean + off, v + off, se + off, &exposure, &lit);
+    if (r == HETINV_SUCCESS && !lit) { /* nothing reached this row: a dark frame of read noise only */
       memset(v + off, 0, len * sizeof *v);
       for (size_t i = 0; i < len; ++i) se[off + i] = 0.0;
       /* Its exposure, and so its noise, is undefined: left out, as the
@@ -111,9 +113,6 @@ hetinv_result_t recon_simulate(hetinv_context_t *ctx, const recon_scene_t *sc,
       memset(mask + off, 0, len);
       continue;
     }
-    hetinv_noise_model_t model = sc->noise_model;
-    model.first_index = off;
-    r = hetinv_noise_apply(ctx, &model, clean + off, v + off, se + off, len, &exposure);
     if (r == HETINV_SUCCESS && sc->expected_camera_errors) {
       /* The library's error is the recorded count's; this one the expected count's. */
       double read_variance = model.read_noise * model.read_noise;

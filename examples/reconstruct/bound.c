@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "camera.h"
 #include "recon.h"
 
 /* The clean values come from recon_simulate's stream, with the data's
@@ -55,11 +56,10 @@ static hetinv_result_t variances_of(hetinv_context_t *ctx, const recon_scene_t *
     }
     /* The data's errors, pooled as recon_simulate pools them. */
     if (sc->pooled_errors && (r = recon_pool_errors(clean + off, mc + off, pixels, bins)) != HETINV_SUCCESS) break;
-    hetinv_noise_model_t model = sc->noise_model;
-    model.first_index = off;
+    /* The shot's exposure, as the acquisition takes it. */
     double exposure = 0.0;
-    r = hetinv_noise_apply(ctx, &model, clean + off, scratch + off, NULL, len, &exposure);
-    double read2 = model.read_noise * model.read_noise;
+    r = camera_shoot_row(ctx, &sc->noise_model, im->set, row, clean + off, scratch + off, NULL, &exposure, &lit);
+    double read2 = sc->noise_model.read_noise * sc->noise_model.read_noise;
     for (size_t i = 0; r == HETINV_SUCCESS && i < len; ++i) {
       double e = exposure * clean[off + i] + read2;
       /* A noiseless camera (read noise 0) still counts photons: at least
