@@ -366,6 +366,7 @@ static int run_cell(const recon_scene_t *sc, int64_t threads, bool quiet, experi
     fflush(stdout);
   }
   if (r == HETINV_SUCCESS) r = recon_simulate(ctx, sc, truth, &im);
+  if (r == HETINV_SUCCESS && !quiet) recon_print_in_loss("hetinv-fig4", sc, &im);
   if (r != HETINV_SUCCESS) snprintf(msg, sizeof msg, "%s", hetinv_context_last_error_message(ctx));
   if (r == HETINV_SUCCESS) r = recon_solve(ctx, sc, &im, true, quiet, &rec, NULL, msg, sizeof msg);
   if (r == HETINV_SUCCESS) {

@@ -47,16 +47,6 @@
 #include <mpi.h>
 #endif
 
-/* How many values acquisition.min_snr leaves in the loss. */
-static void print_in_loss(const recon_scene_t *sc, const recon_imaging_t *im) {
-  size_t n = hetinv_measurements_value_count(im->set), kept = 0;
-  const uint8_t *mask = hetinv_measurements_mask(im->set);
-  for (size_t i = 0; i < n; ++i) kept += mask[i] != 0;
-  printf("hetinv-reconstruct: %zu of %zu values in the loss (acquisition.min_snr %g leaves out values whose "
-         "standard error exceeds value/%g)\n", kept, n, sc->min_snr, sc->min_snr);
-  fflush(stdout);
-}
-
 static int usage(const char *what) {
   fprintf(stderr,
           "hetinv-reconstruct: %s\n"
@@ -262,7 +252,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
       if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
     }
   }
-  if (status == 0 && root && !write_scene && sc.min_snr > 0.0 && (files || !bound_only)) print_in_loss(&sc, &im);
+  if (status == 0 && root && !write_scene && sc.min_snr > 0.0 && (files || !bound_only)) recon_print_in_loss("hetinv-reconstruct", &sc, &im);
   recon_bound_t bound;
   memset(&bound, 0, sizeof bound);
   const int64_t bphotons = bound_photons > 0 ? bound_photons : sc.photons;

@@ -330,6 +330,10 @@ typedef struct recon_errors {
 } recon_errors_t;
 void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *recovered, recon_errors_t *e);
 
+/* Prints "<prog>: K of N values in the loss" and what min_snr's test left
+ * out (the measurement set's mask, after the acquisition). */
+void recon_print_in_loss(const char *prog, const recon_scene_t *scene, const recon_imaging_t *im);
+
 /* Writes recovered_<param>.vol, maps.exr and maps_<param>.png (truth beside
  * recovery) and errors.csv into the scene's output directory (with truth
  * NULL: the recovery alone, no truth_*.vol, no errors.csv); on failure

@@ -144,3 +144,13 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
   }
   return HETINV_SUCCESS;
 }
+
+void recon_print_in_loss(const char *prog, const recon_scene_t *sc, const recon_imaging_t *im) {
+  size_t n = hetinv_measurements_value_count(im->set), kept = 0;
+  const uint8_t *mask = hetinv_measurements_mask(im->set);
+  for (size_t i = 0; i < n; ++i) kept += mask[i] != 0;
+  printf("%s: %zu of %zu values in the loss (acquisition.min_snr %g leaves out values whose %s "
+         "standard error exceeds value/%g)\n", prog, kept, n, sc->min_snr,
+         sc->min_snr_errors == RECON_SNR_RESIDUAL ? "residual's" : "data's", sc->min_snr);
+  fflush(stdout);
+}
