@@ -12,7 +12,7 @@
  *               [--coarse-fraction F] [--coarse-levels none|A,B,...] [--stage-results]
  *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
- *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]
+ *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N] [--seed N]
  *               [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]
  *               [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
@@ -99,7 +99,11 @@
  * (optimizer.box_margin; default 0, unlike the built-in scene's 0.1); --truth-photons N
  * renders the simulated measurements with N photons per source
  * (acquisition.photons; default 120000 with --full, 30000 reduced): their
- * Monte Carlo error is part of the data's noise;
+ * Monte Carlo error is part of the data's noise; --seed N is the run's
+ * seed (the scene's "seed"; default 1): every Monte Carlo draw, the
+ * data's render and the optimizer's, changes with it, the truth volume
+ * and the camera's noise (seeded per volume) do not, so cells run under
+ * several seeds give the spread of a cell's figures;
  * --independent-errors takes the data's Monte Carlo standard errors (and
  * so their weights) from a second render of the truth
  * (acquisition.independent_errors); --pooled-errors takes each value's

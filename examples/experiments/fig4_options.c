@@ -17,7 +17,7 @@ static int usage(const char *what) {
           "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]\n"
           "                   [--independent-errors] [--pooled-errors]\n"
           "                   [--expected-camera-errors] [--residual-weights]\n"
-          "                   [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N]\n"
+          "                   [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N] [--seed N]\n"
           "                   [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]\n"
           "                   [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
@@ -129,6 +129,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       ++i;
     } else if (strcmp(a, "--truth-photons") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, 1000000000, &o->truth_photons) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--seed") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, (int64_t)1 << 53, &o->seed) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--minibatch") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, 100000, &o->minibatch) < 0) return 2;
@@ -263,6 +266,7 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->multiscale >= 0.0) sc->multiscale = o->multiscale;
   if (o->box_margin >= 0.0) sc->box_margin = o->box_margin;
   if (o->truth_photons > 0) sc->truth_photons = o->truth_photons;
+  if (o->seed > 0) sc->seed = (uint64_t)o->seed;
   if (o->independent_errors) sc->independent_errors = true;
   if (o->pooled_errors) sc->pooled_errors = true;
   if (o->expected_camera_errors) sc->expected_camera_errors = true;

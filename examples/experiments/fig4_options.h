@@ -15,7 +15,7 @@ typedef struct fig4_options {
   bool independent_errors, pooled_errors, expected_camera_errors, residual_weights;
   const char *bound_from, *out;
   int64_t first_volume, volumes; /* volumes first_volume + 1 .. first_volume + volumes */
-  int64_t iterations, photons, minibatch, grid, threads, truth_photons, coarse_window;
+  int64_t iterations, photons, minibatch, grid, threads, truth_photons, coarse_window, seed;
   int64_t bound_photons, bound_replicates, fit_photons, fit_replicates;
   double scale, epsilon, min_snr, decay, coarse_fraction, epsilon_start, coarse_epsilon_start, settle_epsilon, settle_fraction, loss_clip, smoothness, multiscale, box_margin;
   int coordinates, loss_clip_errors, min_snr_errors;
