@@ -138,7 +138,8 @@
  * value/S (acquisition.min_snr of hetinv-reconstruct; default 3, 0 keeps
  * every value); --min-snr-errors residual tests the residual's standard
  * error instead, the data's and the optimizer's render's at --photons
- * (acquisition.min_snr_errors; default data).
+ * (acquisition.min_snr_errors; default data; it recovered worse at full
+ * size: the render's noise averages over iterations, the data's does not).
  *
  * --fit-check is the data-or-optimizer test by the loss: for each cell it
  * renders the truth and the stored recovery at --fit-photons per source

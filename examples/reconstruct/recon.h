@@ -90,7 +90,9 @@ typedef struct recon_scene {
    * RECON_SNR_RESIDUAL: the residual's, the data's and the optimizer's
    * render's Monte Carlo error at sc->photons, so a value the data resolve
    * but each iteration's render does not is left out too (simulated data
-   * only: the render's variance is the data's at their photons, scaled). */
+   * only: the render's variance is the data's at their photons, scaled).
+   * Worse at full size (docs/results/fig4.md): the render's noise averages
+   * over iterations, the data's does not. */
   int min_snr_errors;
   /* The Monte Carlo part of each simulated value's standard error from a
    * second, independent render of the truth (same photons), so that a
