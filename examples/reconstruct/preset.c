@@ -51,6 +51,12 @@ static void put_number(FILE *f, double x) {
   fputs(text, f);
 }
 
+/* before, then "key": x. */
+static void put_member(FILE *f, const char *before, const char *key, double x) {
+  fprintf(f, "%s\"%s\": ", before, key);
+  put_number(f, x);
+}
+
 static void put_numbers(FILE *f, const double *v, int n) {
   fputc('[', f);
   for (int i = 0; i < n; ++i) {
@@ -76,10 +82,8 @@ static void write_render_scene(FILE *f, const recon_scene_t *sc, const recon_ima
   put_numbers(f, lo, 3);
   fprintf(f, ", \"max\": ");
   put_numbers(f, hi, 3);
-  fprintf(f, "},\n  \"eta\": ");
-  put_number(f, sc->eta);
-  fprintf(f, ",\n  \"eta_out\": ");
-  put_number(f, sc->has_box ? sc->eta_out : 1.0);
+  put_member(f, "},\n  ", "eta", sc->eta);
+  put_member(f, ",\n  ", "eta_out", sc->has_box ? sc->eta_out : 1.0);
   fprintf(f, ",\n");
   fprintf(f, "  \"medium\": {\"vol\": {\"sigma_a\": \"truth_sigma_a.vol\", \"sigma_s\": \"truth_sigma_s.vol\", "
              "\"g\": \"truth_g.vol\"}},\n  \"emitters\": [\n");
@@ -107,8 +111,8 @@ static void write_render_scene(FILE *f, const recon_scene_t *sc, const recon_ima
   }
   fprintf(f, "  ],\n  \"pathlengths\": [\n    {\"name\": \"steady\", \"type\": \"steady\"}");
   if (im->bin_count > 0) {
-    fprintf(f, ",\n    {\"name\": \"bins\", \"type\": \"bins\", \"window\": \"box\", \"width\": ");
-    put_number(f, im->bin_width);
+    fprintf(f, ",\n    {\"name\": \"bins\", \"type\": \"bins\", \"window\": \"box\"");
+    put_member(f, ", ", "width", im->bin_width);
     fprintf(f, ", \"count\": %d}", (int)im->bin_count);
   }
   fprintf(f, "\n  ],\n  \"measurements\": [\n");
@@ -126,14 +130,10 @@ static void write_render_scene(FILE *f, const recon_scene_t *sc, const recon_ima
   /* And its camera: the same draws, value by value (recon_simulate). */
   if (sc->noise) {
     const hetinv_noise_model_t *m = &sc->noise_model;
-    fprintf(f, ",\n  \"noise\": {\"full_well\": ");
-    put_number(f, m->full_well);
-    fprintf(f, ", \"read_noise\": ");
-    put_number(f, m->read_noise);
-    fprintf(f, ", \"exposure\": ");
-    put_number(f, m->exposure);
-    fprintf(f, ", \"auto_level\": ");
-    put_number(f, m->auto_level);
+    put_member(f, ",\n  \"noise\": {", "full_well", m->full_well);
+    put_member(f, ", ", "read_noise", m->read_noise);
+    put_member(f, ", ", "exposure", m->exposure);
+    put_member(f, ", ", "auto_level", m->auto_level);
     fprintf(f, ", \"seed\": %llu}", (unsigned long long)m->seed);
   }
   fprintf(f, "\n}\n");
@@ -152,50 +152,28 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   fprintf(f, "  \"truth\": {\"vol\": {\"sigma_a\": \"truth_sigma_a.vol\", \"sigma_s\": \"truth_sigma_s.vol\", "
              "\"g\": \"truth_g.vol\"}},\n");
   fprintf(f, "  \"estimator\": {\"photons\": %lld, \"batches\": %d", (long long)sc->photons, (int)sc->batches);
-  if (sc->loss_clip > 0.0) {
-    fprintf(f, ", \"loss_clip\": ");
-    put_number(f, sc->loss_clip);
-  }
+  if (sc->loss_clip > 0.0) put_member(f, ", ", "loss_clip", sc->loss_clip);
   fprintf(f, "},\n");
   fprintf(f, "  \"optimizer\": {\"method\": \"%s\", \"coordinates\": \"%s\", \"iterations\": %lld,\n",
           recon_method_names[sc->method], recon_coordinate_names[sc->coordinates], (long long)sc->iterations);
-  fprintf(f, "                \"coarse_fraction\": ");
-  put_number(f, sc->coarse_fraction);
-  fprintf(f, ", \"minibatch\": %d, \"epsilon\": ", (int)sc->minibatch);
-  put_number(f, sc->epsilon);
-  if (sc->epsilon_start > 0.0) {
-    fprintf(f, ", \"epsilon_start\": ");
-    put_number(f, sc->epsilon_start);
-  }
-  if (sc->coarse_epsilon_start > 0.0) {
-    fprintf(f, ", \"coarse_epsilon_start\": ");
-    put_number(f, sc->coarse_epsilon_start);
-  }
+  put_member(f, "                ", "coarse_fraction", sc->coarse_fraction);
+  fprintf(f, ", \"minibatch\": %d", (int)sc->minibatch);
+  put_member(f, ", ", "epsilon", sc->epsilon);
+  if (sc->epsilon_start > 0.0) put_member(f, ", ", "epsilon_start", sc->epsilon_start);
+  if (sc->coarse_epsilon_start > 0.0) put_member(f, ", ", "coarse_epsilon_start", sc->coarse_epsilon_start);
   if (sc->settle_epsilon > 0.0) {
-    fprintf(f, ", \"settle_epsilon\": ");
-    put_number(f, sc->settle_epsilon);
-    fprintf(f, ", \"settle_fraction\": ");
-    put_number(f, sc->settle_fraction);
+    put_member(f, ", ", "settle_epsilon", sc->settle_epsilon);
+    put_member(f, ", ", "settle_fraction", sc->settle_fraction);
   }
-  fprintf(f, ", \"decay\": ");
-  put_number(f, sc->decay);
-  fprintf(f, ",\n                \"learning_rate\": ");
-  put_number(f, sc->learning_rate);
+  put_member(f, ", ", "decay", sc->decay);
+  put_member(f, ",\n                ", "learning_rate", sc->learning_rate);
   fprintf(f, ", \"average_window\": %d, ", (int)sc->average_window);
   if (sc->coarse_average_window > 0) fprintf(f, "\"coarse_average_window\": %d, ", (int)sc->coarse_average_window);
-  fprintf(f, "\"time_budget\": ");
-  put_number(f, sc->time_budget);
-  if (sc->smoothness > 0.0) {
-    fprintf(f, ", \"smoothness\": ");
-    put_number(f, sc->smoothness);
-  }
-  if (sc->multiscale > 0.0) {
-    fprintf(f, ", \"multiscale\": ");
-    put_number(f, sc->multiscale);
-  }
+  put_member(f, "", "time_budget", sc->time_budget);
+  if (sc->smoothness > 0.0) put_member(f, ", ", "smoothness", sc->smoothness);
+  if (sc->multiscale > 0.0) put_member(f, ", ", "multiscale", sc->multiscale);
   /* Always written: the reader's default (0.1) is not the library's 0. */
-  fprintf(f, ", \"box_margin\": ");
-  put_number(f, sc->box_margin);
+  put_member(f, ", ", "box_margin", sc->box_margin);
   if (sc->stage_results) fprintf(f, ", \"stage_results\": true");
   fprintf(f, ",\n");
   fprintf(f, "                \"bounds\": {");
