@@ -4,8 +4,8 @@
  * walks it makes (so the grid can tabulate them). Each kind defines one
  * hv_sensor_kind_t in its file of lib/sensors/ and sets it on the sensors
  * it creates (hv_sensor_new); transport never names a kind. Adding a kind
- * is that one file, its create function's prototype in hetinv/sampling.h
- * and its line in lib/CMakeLists.txt. */
+ * is that one file and its create function's prototype in
+ * hetinv/sampling.h (lib/CMakeLists.txt builds every file of lib/sensors/). */
 #ifndef HV_SENSOR_KIND_H
 #define HV_SENSOR_KIND_H
 
