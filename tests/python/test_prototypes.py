@@ -35,10 +35,9 @@ class Prototypes(unittest.TestCase):
             self.assertEqual(len(argtypes), c_n, "%s: %d parameters in C" % (name, c_n))
             self.assertEqual(restype is None, c_ret == "void", "%s returns %s" % (name, c_ret))
         left_out = sorted(set(decls) - set(_lib.PROTOTYPES))
-        # Images (OpenEXR / PNG) are not bound yet; an MPI communicator cannot
-        # cross ctypes portably (mpi4py users call the C function directly).
-        unbound = [n for n in left_out if not n.startswith("hetinv_image_")]
-        self.assertEqual([n for n in unbound if n != "hetinv_context_set_mpi_comm"], [])
+        # An MPI communicator cannot cross ctypes portably (mpi4py users call
+        # the C function directly).
+        self.assertEqual([n for n in left_out if n != "hetinv_context_set_mpi_comm"], [])
 
     def test_every_declared_function_is_in_the_library(self):
         for name in _lib.PROTOTYPES:
