@@ -8,6 +8,11 @@ the truth volume shown as frames.
 RESULT_DIR is an output folder of hetinv-reconstruct (or hetinv-fig4):
 it reads truth_<param>.vol and recovered_<param>.vol there, and writes
 RESULT_DIR/fig4a.png and RESULT_DIR/transient.png unless told otherwise.
+Where the folder holds the bound (bound.exr), a fourth column sets each
+voxel's error against it: the error in units of the relative standard
+deviation the data allow an unbiased recovery (the full bound where the
+estimated Fisher matrix is positive definite, else the local one; gray
+where neither determines the voxel).
 The transient stack is rendered here from the truth volume: a pencil beam
 at the middle of the top face (z max), an orthographic camera on the
 section's face (y max), pathlength bins of one voxel's width. --eta is the volume's refractive
@@ -48,8 +53,24 @@ def extent(header):
     return (header.box_min[0], header.box_max[0], header.box_min[2], header.box_max[2])
 
 
+def read_bound(ctx, folder):
+    """bound.exr's image (row = z, as the section), or None without one."""
+    path = os.path.join(folder, "bound.exr")
+    return hetinv.read_exr(ctx, path) if os.path.exists(path) else None
+
+
+def bound_section(bound, name):
+    """The relative standard deviation per voxel: the full bound where it
+    exists (F̂ positive definite), else the local one."""
+    full = np.asarray(bound["bound_%s" % name], dtype=np.float64)
+    local = np.asarray(bound["bound_local_%s" % name], dtype=np.float64)
+    return np.where(np.isfinite(full), full, local)
+
+
 def draw_maps(ctx, folder, out, title=None):
-    fig, axes = plt.subplots(3, 3, figsize=(10.5, 9.0), constrained_layout=True)
+    bound = read_bound(ctx, folder)
+    cols = 3 if bound is None else 4
+    fig, axes = plt.subplots(3, cols, figsize=(3.5 * cols, 9.0), constrained_layout=True)
     summary = []
     for row, (name, symbol, unit) in enumerate(PARAMS):
         header, truth = read_section(ctx, os.path.join(folder, "truth_%s.vol" % name))
@@ -68,7 +89,20 @@ def draw_maps(ctx, folder, out, title=None):
                        cmap="magma")
         ax.set_title("%s relative error\nmean %.1f %%, max %.1f %%" % (symbol, 100 * rel.mean(), 100 * rel.max()))
         fig.colorbar(im, ax=ax, label="|recovery − truth| / truth [%]")
-        summary.append((name, rel.mean(), rel.max()))
+        in_bounds = None
+        if bound is not None:
+            z = rel / bound_section(bound, name)
+            known = np.isfinite(z)
+            in_bounds = float(z[known].max()) if known.any() else float("nan")
+            ax = axes[row, 3]
+            cmap = matplotlib.colormaps["magma"].with_extremes(bad="0.6")  # gray: no bound
+            im = ax.imshow(np.ma.masked_invalid(z), origin="lower", extent=ext, vmin=0.0,
+                           vmax=max(3.0, in_bounds if known.any() else 0.0), cmap=cmap)
+            ax.set_title("%s error ÷ bound: max %.1f\n%d voxels over 2, %d undetermined (gray)"
+                         % (symbol, in_bounds, int(np.count_nonzero(z[known] > 2.0)),
+                            int(np.count_nonzero(~known))))
+            fig.colorbar(im, ax=ax, label="error / bound")
+        summary.append((name, rel.mean(), rel.max(), in_bounds))
         for ax in axes[row]:
             ax.set_xlabel("x [mm]")
             ax.set_ylabel("z [mm]")
@@ -134,8 +168,9 @@ def main():
     args = parser.parse_args()
     ctx = hetinv.Context(seed=2016, threads=0)
     out = args.out or os.path.join(args.folder, "fig4a.png")
-    for name, mean, worst in draw_maps(ctx, args.folder, out, args.title):
-        print("%-8s mean %.2f %%  max %.2f %%" % (name, 100 * mean, 100 * worst))
+    for name, mean, worst, in_bounds in draw_maps(ctx, args.folder, out, args.title):
+        against = "" if in_bounds is None else "  worst error ÷ bound %.2f" % in_bounds
+        print("%-8s mean %.2f %%  max %.2f %%%s" % (name, 100 * mean, 100 * worst, against))
     print("wrote", out)
     transient = args.transient or os.path.join(args.folder, "transient.png")
     draw_transient(ctx, args.folder, transient, args.eta, args.photons)
