@@ -63,6 +63,8 @@ def bound_section(bound, name):
     """The relative standard deviation per voxel: the full bound where it
     exists (F̂ positive definite), else the local one."""
     full = np.asarray(bound["bound_%s" % name], dtype=np.float64)
+    if "bound_local_%s" % name not in bound.channel_names:  # F̂ positive definite: no local bound
+        return full
     local = np.asarray(bound["bound_local_%s" % name], dtype=np.float64)
     return np.where(np.isfinite(full), full, local)
 
@@ -79,10 +81,10 @@ def draw_maps(ctx, folder, out, title=None):
         lo, hi = float(min(truth.min(), rec.min())), float(max(truth.max(), rec.max()))
         ext = extent(header)
         # Truth and recovery share one colour scale, so they can be compared by eye.
-        for col, (img, title) in enumerate(((truth, "truth"), (rec, "recovery"))):
+        for col, (img, what) in enumerate(((truth, "truth"), (rec, "recovery"))):
             ax = axes[row, col]
             im = ax.imshow(img, origin="lower", extent=ext, vmin=lo, vmax=hi, cmap="viridis")
-            ax.set_title("%s %s" % (symbol, title))
+            ax.set_title("%s %s" % (symbol, what))
             fig.colorbar(im, ax=ax, label="%s [%s]" % (symbol, unit))
         ax = axes[row, 2]
         im = ax.imshow(100.0 * rel, origin="lower", extent=ext, vmin=0.0, vmax=max(15.0, 100.0 * rel.max()),
@@ -98,9 +100,10 @@ def draw_maps(ctx, folder, out, title=None):
             cmap = matplotlib.colormaps["magma"].with_extremes(bad="0.6")  # gray: no bound
             im = ax.imshow(np.ma.masked_invalid(z), origin="lower", extent=ext, vmin=0.0,
                            vmax=max(3.0, in_bounds if known.any() else 0.0), cmap=cmap)
-            ax.set_title("%s error ÷ bound: max %.1f\n%d voxels over 2, %d undetermined (gray)"
-                         % (symbol, in_bounds, int(np.count_nonzero(z[known] > 2.0)),
-                            int(np.count_nonzero(~known))))
+            over, undetermined = int(np.count_nonzero(z[known] > 2.0)), int(np.count_nonzero(~known))
+            ax.set_title("%s error ÷ bound: max %.1f\n%d of %d voxels over 2%s"
+                         % (symbol, in_bounds, over, z.size,
+                            ", %d undetermined (gray)" % undetermined if undetermined else ""))
             fig.colorbar(im, ax=ax, label="error / bound")
         summary.append((name, rel.mean(), rel.max(), in_bounds))
         for ax in axes[row]:
