@@ -61,6 +61,17 @@ class Images(unittest.TestCase):
         hetinv.flat(a)[0] = 5.0
         self.assertEqual(list(hetinv.flat(img[0])), [0.0, 0.0])
 
+    def test_without_numpy_channels_are_flat_float_arrays(self):
+        previous = hetinv.use_numpy(False)
+        try:
+            img = hetinv.Image(self.ctx, 3, 2)
+            img.set_channel(0, [0.5] * 6)
+            img.write_exr(self.path("f.exr"))
+            c = hetinv.read_exr(self.ctx, self.path("f.exr"))[0]
+            self.assertEqual((c.typecode, list(c)), ("f", [0.5] * 6))
+        finally:
+            hetinv.use_numpy(previous)
+
     def test_png_preview_is_written(self):
         img = hetinv.Image(self.ctx, 4, 4)
         img.set_channel(0, [float(i) for i in range(16)])
@@ -80,6 +91,16 @@ class Images(unittest.TestCase):
             img.set_channel(0, [1.0, 2.0, 3.0])
         with self.assertRaises(hetinv.InvalidArgumentError):
             img.set_attribute("channels", "x")  # reserved by OpenEXR
+        # A NUL would end the C string early: another name than the one given.
+        with self.assertRaisesRegex(ValueError, "embedded null"):
+            img.set_attribute("a\0b", 1)
+        with self.assertRaisesRegex(ValueError, "embedded null"):
+            img.set_attribute("note", "x\0y")
+        with self.assertRaisesRegex(ValueError, "embedded null"):
+            img.rename_channel(0, "c\0")
+        with self.assertRaisesRegex(TypeError, "name: expected a str"):
+            img.set_attribute(b"key", 1)
+        self.assertEqual(img.attributes, {})
         with self.assertRaises(hetinv.InvalidArgumentError):
             img.set_attribute("x", float("nan"))
         with self.assertRaises(hetinv.InvalidArgumentError):

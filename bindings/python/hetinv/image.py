@@ -27,6 +27,17 @@ def _ctx(ctx):
     return handle_arg(ctx, Context, "ctx")
 
 
+def _text(value, name):
+    """A str as UTF-8 bytes for a C string. A NUL byte would end the C
+    string early (naming another channel or attribute than the one
+    given), so it is a ValueError, as for paths."""
+    if not isinstance(value, str):
+        raise TypeError("%s: expected a str, got %s" % (name, type(value).__name__))
+    if "\0" in value:
+        raise ValueError("%s: embedded null character in %r" % (name, value))
+    return value.encode()
+
+
 class Image(Handle):
     """hetinv_image_t: `channels` channels of width × height float32 pixels,
     all 0, named "c0", "c1", ... Pixel (x, y) of a channel is its
@@ -58,7 +69,7 @@ class Image(Handle):
         IndexError if there is none)."""
         if isinstance(channel, str):
             index = ctypes.c_int32()
-            if lib.image_find_channel(self._ptr, channel.encode(), ctypes.byref(index)) != 0:
+            if lib.image_find_channel(self._ptr, _text(channel, "channel"), ctypes.byref(index)) != 0:
                 raise KeyError("no channel %r; the image has %s"
                                % (channel, ", ".join(self.channel_names)))
             return index.value
@@ -85,7 +96,7 @@ class Image(Handle):
         return self
 
     def rename_channel(self, channel, name):
-        check(lib.image_set_channel_name(self._ptr, self.channel_index(channel), name.encode()))
+        check(lib.image_set_channel_name(self._ptr, self.channel_index(channel), _text(name, "name")))
         return self
 
     @property
@@ -115,9 +126,9 @@ class Image(Handle):
     def set_attribute(self, name, value):
         """Add or replace an attribute: a str is stored as a string, an int
         (which must fit int32) as an int, any other real number as a double."""
-        key = name.encode()
+        key = _text(name, "name")
         if isinstance(value, str):
-            check(lib.image_set_attribute_string(self._ptr, key, value.encode()))
+            check(lib.image_set_attribute_string(self._ptr, key, _text(value, name)))
         elif isinstance(value, int) and not isinstance(value, bool):
             check(lib.image_set_attribute_int(self._ptr, key, integer(value, name)))
         else:
