@@ -22,7 +22,7 @@ static int usage(const char *what) {
           "                   [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]\n"
-          "                   [--fit-replicates N]\n",
+          "                   [--fit-replicates N] [--gradient-check N]\n",
           what);
   return 2;
 }
@@ -60,7 +60,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .out = "out/fig4",
       .volumes = -1, .iterations = -1, .photons = -1, .minibatch = -1, .grid = -1, .threads = -1,
       .truth_photons = -1, .coarse_window = -1,
-      .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4,
+      .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4, .gradient_replicates = 0,
       .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0, .coarse_epsilon_start = -1.0, .settle_epsilon = -1.0, .settle_fraction = -1.0,
       .loss_clip = -1.0, .loss_clip_errors = -1, .min_snr_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
       .coordinates = -1,
@@ -85,6 +85,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       ++i;
     } else if (strcmp(a, "--fit-replicates") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 2, 1000, &o->fit_replicates) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--gradient-check") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 2, 1000, &o->gradient_replicates) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--bound") == 0) {
       o->bound = true;
@@ -230,6 +233,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
   if (o->bound && o->bound_only) return usage("--bound and --bound-only exclude each other");
   if (o->write_scenes && (o->bound || o->bound_only)) return usage("--write-scenes writes set-ups; it computes no bound");
   if (o->fit && (o->write_scenes || o->bound_only)) return usage("--fit-check needs the cells' recoveries");
+  if (o->gradient_replicates > 0 && (o->write_scenes || o->bound_only)) {
+    return usage("--gradient-check needs the cells' recoveries");
+  }
   if ((o->settle_epsilon > 0.0) != (o->settle_fraction > 0.0)) {
     return usage("--settle-epsilon and --settle-fraction go together");
   }

@@ -11,6 +11,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "stored_cell.h"
+
 const double FIT_CHECK_TAILS[3] = {3.0, 10.0, 100.0};
 
 /* fit_check_t.beyond and beyond10_share of a render against the data. */
@@ -173,20 +175,6 @@ static hetinv_result_t loss_pairs(hetinv_estimator_t *est, const recon_scene_t *
   return r;
 }
 
-static hetinv_result_t read_recovery(hetinv_context_t *ctx, const recon_scene_t *sc, hetinv_medium_t **out,
-                                     char *msg, size_t msg_size) {
-  hetinv_result_t r = recon_medium_create(ctx, sc, out);
-  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
-    char path[1200];
-    snprintf(path, sizeof path, "%s/recovered_%s.vol", sc->output, hetinv_param_name(p));
-    r = hetinv_medium_read_vol(*out, p, path);
-    if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
-  }
-  if (r == HETINV_SUCCESS) r = hetinv_medium_commit(*out);
-  if (r != HETINV_SUCCESS) hetinv_medium_destroy(out);
-  return r;
-}
-
 hetinv_result_t fit_check_compare(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_measurements_t *set,
                                   const hetinv_medium_t *truth, const hetinv_medium_t *rec, int64_t photons,
                                   int32_t replicates, fit_check_t *out) {
@@ -231,30 +219,12 @@ int fit_check_run(const recon_scene_t *sc, int64_t threads, int64_t photons, int
                   fit_check_t *out, char *msg, size_t msg_size) {
   *out = (fit_check_t){0};
   double t0 = recon_now();
-  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
-  init.seed = sc->seed;
-  init.thread_count = threads >= 0 ? (int32_t)threads : sc->threads;
-  hetinv_context_t *ctx = NULL;
-  if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) {
-    snprintf(msg, msg_size, "%s: cannot create a context", sc->name);
-    return -1;
-  }
-  hetinv_medium_t *truth = NULL, *rec = NULL;
-  recon_imaging_t im = {0};
-  msg[0] = '\0';
-  hetinv_result_t r = recon_truth_create(ctx, sc, &truth);
-  if (r == HETINV_SUCCESS) r = recon_imaging_build(ctx, truth, sc, &im);
-  if (r == HETINV_SUCCESS) r = recon_simulate(ctx, sc, truth, &im);
-  if (r == HETINV_SUCCESS) r = read_recovery(ctx, sc, &rec, msg, msg_size);
-  if (r == HETINV_SUCCESS) r = fit_check_compare(ctx, sc, im.set, truth, rec, photons, replicates, out);
-  if (r != HETINV_SUCCESS && msg[0] == '\0') {
-    snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(ctx));
-  }
+  stored_cell_t cell;
+  if (stored_cell_open(sc, threads, &cell, msg, msg_size) != 0) return -1;
+  hetinv_result_t r = fit_check_compare(cell.ctx, sc, cell.im.set, cell.truth, cell.recovery, photons, replicates, out);
+  if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(cell.ctx));
   out->seconds = recon_now() - t0; /* the data's simulation included */
-  hetinv_medium_destroy(&rec);
-  hetinv_medium_destroy(&truth);
-  recon_imaging_release(&im);
-  hetinv_context_destroy(&ctx);
+  stored_cell_close(&cell);
   return r == HETINV_SUCCESS ? 0 : -1;
 }
 

@@ -308,6 +308,10 @@ void recon_set_weights(int weighting, const double *v, const double *se, const d
 /* Clears mask[i] where v[i] < min_snr·se[i] (nothing if min_snr is 0). */
 void recon_mask_unresolved(const double *v, const double *se, uint8_t *mask, size_t n, double min_snr);
 
+/* The run's estimator settings: the scene's photons, batches, loss clip
+ * and gain mode (what recon_solve() renders and differentiates with). */
+hetinv_result_t recon_estimator_configure(hetinv_estimator_t *estimator, const recon_scene_t *scene);
+
 /* Runs the scene's schedule from its uniform initial medium, writing
  * <output>/checkpoint.bin as it goes and <output>/loss.csv at the end. With
  * `resume`, continues from the checkpoint if it exists. `quiet` suppresses
@@ -343,6 +347,12 @@ void recon_print_in_loss(const char *prog, const recon_scene_t *scene, const rec
 hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *scene,
                                     const hetinv_medium_t *truth,
                                     const hetinv_medium_t *recovered, const recon_errors_t *errors,
+                                    char *msg, size_t msg_size);
+
+/* Reads a stored recovery, <scene->output>/recovered_<param>.vol, into a
+ * committed medium of the scene's grid; on failure msg receives
+ * "<file>: <reason>". */
+hetinv_result_t recon_read_recovery(hetinv_context_t *ctx, const recon_scene_t *scene, hetinv_medium_t **out,
                                     char *msg, size_t msg_size);
 
 /* A text file written whole or not at all: recon_text_begin() creates

@@ -145,6 +145,20 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
   return HETINV_SUCCESS;
 }
 
+hetinv_result_t recon_read_recovery(hetinv_context_t *ctx, const recon_scene_t *sc, hetinv_medium_t **out, char *msg,
+                                    size_t msg_size) {
+  hetinv_result_t r = recon_medium_create(ctx, sc, out);
+  for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) {
+    char path[1200];
+    snprintf(path, sizeof path, "%s/recovered_%s.vol", sc->output, hetinv_param_name(p));
+    r = hetinv_medium_read_vol(*out, p, path);
+    if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
+  }
+  if (r == HETINV_SUCCESS) r = hetinv_medium_commit(*out);
+  if (r != HETINV_SUCCESS) hetinv_medium_destroy(out);
+  return r;
+}
+
 void recon_print_in_loss(const char *prog, const recon_scene_t *sc, const recon_imaging_t *im) {
   size_t n = hetinv_measurements_value_count(im->set), kept = 0;
   const uint8_t *mask = hetinv_measurements_mask(im->set);

@@ -79,6 +79,14 @@ static int on_progress(const hetinv_progress_t *p, void *user) {
   return 0;
 }
 
+hetinv_result_t recon_estimator_configure(hetinv_estimator_t *est, const recon_scene_t *sc) {
+  hetinv_result_t r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)sc->photons);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, sc->batches);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_LOSS_CLIP, sc->loss_clip);
+  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_gain_mode(est, sc->gain_mode);
+  return r;
+}
+
 static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *sc) {
   hetinv_result_t r = HETINV_SUCCESS;
   /* Window 0: average the second half of the finest stage, past its
@@ -238,10 +246,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
     if (r == HETINV_SUCCESS && !quiet) fprintf(stderr, "resuming from %s\n", checkpoint);
   }
   if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, (double)sc->photons);
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, sc->batches);
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_LOSS_CLIP, sc->loss_clip);
-  if (r == HETINV_SUCCESS) r = hetinv_estimator_set_gain_mode(est, sc->gain_mode);
+  if (r == HETINV_SUCCESS) r = recon_estimator_configure(est, sc);
   hetinv_stop_reason_t why = HETINV_STOP_NONE;
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_run(opt, est, &why);
   bool stage_failed = r == HETINV_SUCCESS && pl.failure[0] != '\0';
