@@ -20,7 +20,18 @@
  *   (ADADELTA, Adam) moves an entry about ε·scale·SNR per iteration, so
  *   a small SNR is an approach that the run's iterations cannot finish.
  * The smoothness prior's gradient is not included (it is deterministic
- * and the run adds it itself). */
+ * and the run adds it itself).
+ *
+ * The data's side of the same question: how far apart the data hold the
+ * truth and the recovery, dᵀF d for d = recovery − truth and F the Fisher
+ * information of the data at the truth (Σ_n mask·w·(J d)_n², the loss's
+ * weights taken as the data's 1/σ²), linearised at the truth. Its square
+ * root is the separation in the data's standard deviations. An efficient
+ * unbiased recovery of k entries lies at dᵀF d ~ χ²_k, k ± √(2k): within
+ * that, the data cannot tell the recovery from the truth and no optimizer
+ * could do better; far beyond it, the data can and the run did not. Each (J d)_n² is the
+ * product of two Jacobian–vector products on independent streams, so the
+ * estimate is unbiased; the replicates give its error. */
 #ifndef HETINV_RECON_GRADIENT_CHECK_H
 #define HETINV_RECON_GRADIENT_CHECK_H
 
@@ -52,6 +63,7 @@ typedef struct gradient_summary {
 typedef struct gradient_check {
   gradient_stats_t truth, recovery;
   gradient_summary_t summary;
+  double separation2, separation2_se; /* dᵀF d and its standard error */
   int32_t replicates;
   int64_t photons;
   double seconds;
