@@ -166,15 +166,16 @@ static hetinv_result_t write_maps(hetinv_context_t *ctx, const recon_scene_t *sc
   return r;
 }
 
-int gradient_check_run(const recon_scene_t *sc, int64_t threads, int32_t replicates, double threshold,
-                       gradient_check_t *out, char *msg, size_t msg_size) {
+hetinv_result_t gradient_check_compare(hetinv_context_t *ctx, const recon_scene_t *sc,
+                                       const hetinv_measurements_t *set, const hetinv_medium_t *truth,
+                                       const hetinv_medium_t *rec, int32_t replicates, double threshold,
+                                       gradient_check_t *out, char *msg, size_t msg_size) {
   *out = (gradient_check_t){.replicates = replicates, .photons = sc->photons};
+  msg[0] = '\0';
   double t0 = recon_now();
-  stored_cell_t cell;
-  if (stored_cell_open(sc, threads, &cell, msg, msg_size) != 0) return -1;
   hetinv_param_map_t *map = NULL;
   hetinv_estimator_t *est = NULL;
-  hetinv_result_t r = hetinv_param_map_create_identity(cell.truth, HETINV_FREE_ALL, &map);
+  hetinv_result_t r = hetinv_param_map_create_identity(truth, HETINV_FREE_ALL, &map);
   size_t k = map ? hetinv_param_map_size(map) : 0;
   if (r == HETINV_SUCCESS) {
     out->buffer = malloc(7 * k * sizeof *out->buffer);
@@ -186,20 +187,32 @@ int gradient_check_run(const recon_scene_t *sc, int64_t threads, int32_t replica
     out->truth = (gradient_stats_t){b, b + k, b + 2 * k};
     out->recovery = (gradient_stats_t){b + 3 * k, b + 4 * k, b + 5 * k};
     g = b + 6 * k;
-    r = hetinv_estimator_create(cell.ctx, &est);
+    r = hetinv_estimator_create(ctx, &est);
   }
   if (r == HETINV_SUCCESS) r = recon_estimator_configure(est, sc);
-  if (r == HETINV_SUCCESS) r = replicate(est, cell.truth, cell.im.set, map, replicates, g, k, &out->truth);
-  if (r == HETINV_SUCCESS) r = replicate(est, cell.recovery, cell.im.set, map, replicates, g, k, &out->recovery);
-  if (r == HETINV_SUCCESS) r = separation(est, cell.truth, cell.recovery, cell.im.set, map, replicates, k, out);
-  if (r == HETINV_SUCCESS) summarise(out, cell.truth, cell.recovery, k / 3, threshold, &out->summary);
-  if (r == HETINV_SUCCESS) r = write_maps(cell.ctx, sc, cell.truth, cell.recovery, out, msg, msg_size);
-  else snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(cell.ctx));
-  out->seconds = recon_now() - t0; /* the data's simulation included */
+  if (r == HETINV_SUCCESS) r = replicate(est, truth, set, map, replicates, g, k, &out->truth);
+  if (r == HETINV_SUCCESS) r = replicate(est, rec, set, map, replicates, g, k, &out->recovery);
+  if (r == HETINV_SUCCESS) r = separation(est, truth, rec, set, map, replicates, k, out);
+  if (r == HETINV_SUCCESS) summarise(out, truth, rec, k / 3, threshold, &out->summary);
+  if (r == HETINV_SUCCESS) r = write_maps(ctx, sc, truth, rec, out, msg, msg_size);
+  else snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(ctx));
+  out->seconds = recon_now() - t0;
   hetinv_estimator_destroy(&est);
   hetinv_param_map_destroy(&map);
-  stored_cell_close(&cell);
   if (r != HETINV_SUCCESS) gradient_check_release(out);
+  return r;
+}
+
+int gradient_check_run(const recon_scene_t *sc, int64_t threads, int32_t replicates, double threshold,
+                       gradient_check_t *out, char *msg, size_t msg_size) {
+  *out = (gradient_check_t){0};
+  double t0 = recon_now();
+  stored_cell_t cell;
+  if (stored_cell_open(sc, threads, &cell, msg, msg_size) != 0) return -1;
+  hetinv_result_t r = gradient_check_compare(cell.ctx, sc, cell.im.set, cell.truth, cell.recovery, replicates,
+                                             threshold, out, msg, msg_size);
+  out->seconds = recon_now() - t0; /* the data's simulation included */
+  stored_cell_close(&cell);
   return r == HETINV_SUCCESS ? 0 : -1;
 }
 

@@ -70,11 +70,20 @@ typedef struct gradient_check {
   double *buffer; /* owns the six arrays */
 } gradient_check_t;
 
-/* Simulates the scene's data (as its cell did), reads the recovery from
- * <scene->output>/recovered_<param>.vol, renders `replicates` (2 or more)
- * gradients of the run's loss at each, summarises them against
+/* Renders `replicates` (2 or more) gradients of the run's loss on the
+ * data `set` at the truth and at the recovery, and as many pairs of
+ * Jacobian–vector products for dᵀF d; summarises them against
  * `threshold` (relative error) and writes <scene->output>/gradient_check.exr.
- * 0, or -1 with "<what or file>: <reason>" in msg. */
+ * On failure msg receives "<what or file>: <reason>". */
+hetinv_result_t gradient_check_compare(hetinv_context_t *ctx, const recon_scene_t *scene,
+                                       const hetinv_measurements_t *set, const hetinv_medium_t *truth,
+                                       const hetinv_medium_t *recovery, int32_t replicates, double threshold,
+                                       gradient_check_t *out, char *msg, size_t msg_size);
+
+/* gradient_check_compare() on a finished cell: simulates the scene's data
+ * (as its cell did) and reads the recovery from
+ * <scene->output>/recovered_<param>.vol. 0, or -1 with "<what or file>:
+ * <reason>" in msg. */
 int gradient_check_run(const recon_scene_t *scene, int64_t threads, int32_t replicates, double threshold,
                        gradient_check_t *out, char *msg, size_t msg_size);
 
