@@ -1,6 +1,7 @@
 /* The data-or-optimizer test by the gradient (gradient_check.h). */
 #include "gradient_check.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -166,6 +167,34 @@ static hetinv_result_t write_maps(hetinv_context_t *ctx, const recon_scene_t *sc
   return r;
 }
 
+/* An efficient unbiased recovery of k entries lies at dᵀF d ~ χ²_k,
+ * k ± √(2k); beyond k + 2√(2k) the data put the truth further from the
+ * recovery than their noise explains. */
+static const char *separation_verdict(const gradient_check_t *gc) {
+  double d2 = gc->separation2, se = gc->separation2_se, k = 3.0 * (double)gc->summary.entries;
+  double top = k + 2.0 * sqrt(2.0 * k);
+  return d2 - 2.0 * se > top ? "apart" : d2 + 2.0 * se < top ? "within" : "undecided";
+}
+
+static int store(const recon_scene_t *sc, const gradient_check_t *gc) {
+  char path[1200], tmp[1220];
+  snprintf(path, sizeof path, "%s/gradient_check.csv", sc->output);
+  FILE *out = recon_text_begin(path, tmp, sizeof tmp);
+  if (out == NULL) return -1;
+  const gradient_summary_t *s = &gc->summary;
+  fprintf(out, "param,truth_beyond_3_se,entries,missed,pulled,flat,pushed,pulled_snr_median\n");
+  for (int p = 0; p < 3; ++p) {
+    fprintf(out, "%s,%zu,%zu,%zu,%zu,%zu,%zu,%.4g\n", hetinv_param_name(p), s->truth_beyond3[p], s->entries,
+            s->missed[p], s->pulled[p], s->flat[p], s->pushed[p], s->pulled_snr_median[p]);
+  }
+  double k = 3.0 * (double)s->entries;
+  fprintf(out, "separation,%.9g,%.3g,%.0f,%.4g,%s\n", gc->separation2, gc->separation2_se, k,
+          k + 2.0 * sqrt(2.0 * k), separation_verdict(gc));
+  fprintf(out, "threshold,%.4g\nreplicates,%d\nphotons,%lld\nseconds,%.3f\n", s->threshold, (int)gc->replicates,
+          (long long)gc->photons, gc->seconds);
+  return recon_text_commit(out, tmp, path);
+}
+
 hetinv_result_t gradient_check_compare(hetinv_context_t *ctx, const recon_scene_t *sc,
                                        const hetinv_measurements_t *set, const hetinv_medium_t *truth,
                                        const hetinv_medium_t *rec, int32_t replicates, double threshold,
@@ -197,6 +226,10 @@ hetinv_result_t gradient_check_compare(hetinv_context_t *ctx, const recon_scene_
   if (r == HETINV_SUCCESS) r = write_maps(ctx, sc, truth, rec, out, msg, msg_size);
   else snprintf(msg, msg_size, "%s: %s", sc->name, hetinv_context_last_error_message(ctx));
   out->seconds = recon_now() - t0;
+  if (r == HETINV_SUCCESS && store(sc, out) != 0) {
+    snprintf(msg, msg_size, "%s/gradient_check.csv: %s", sc->output, strerror(errno));
+    r = HETINV_ERROR_IO;
+  }
   hetinv_estimator_destroy(&est);
   hetinv_param_map_destroy(&map);
   if (r != HETINV_SUCCESS) gradient_check_release(out);
@@ -226,18 +259,15 @@ void gradient_check_print(const recon_scene_t *sc, const gradient_check_t *gc) {
            hetinv_param_name(p), s->truth_beyond3[p], s->entries, s->missed[p], 100.0 * s->threshold, s->pulled[p],
            s->pulled_snr_median[p], s->flat[p], s->pushed[p]);
   }
-  /* An efficient unbiased recovery of k entries lies at dᵀF d ~ χ²_k:
-   * k ± √(2k); beyond k + 2√(2k) the data put the truth further from
-   * the recovery than their noise explains. */
   double d2 = gc->separation2, se = gc->separation2_se, k = 3.0 * (double)s->entries;
-  double top = k + 2.0 * sqrt(2.0 * k);
+  const char *v = separation_verdict(gc);
   printf("  the data separate the truth and the recovery by d'Fd = %.4g +- %.2g (linearised at the truth; %d pairs "
          "of Jacobian-vector products; an efficient unbiased recovery of %.0f entries: %.0f +- %.0f): %s\n",
          d2, se, (int)gc->replicates, k, k, sqrt(2.0 * k),
-         d2 - 2.0 * se > top   ? "further apart than the data's noise explains: the data tell them apart"
-         : d2 + 2.0 * se < top ? "within the data's noise: the data do not tell them apart"
-                               : "undecided at this precision");
-  printf("  wrote %s/gradient_check.exr\n", sc->output);
+         v[0] == 'a'   ? "further apart than the data's noise explains: the data tell them apart"
+         : v[0] == 'w' ? "within the data's noise: the data do not tell them apart"
+                       : "undecided at this precision");
+  printf("  wrote %s/gradient_check.{exr,csv}\n", sc->output);
   fflush(stdout);
 }
 

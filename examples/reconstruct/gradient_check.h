@@ -73,8 +73,8 @@ typedef struct gradient_check {
 /* Renders `replicates` (2 or more) gradients of the run's loss on the
  * data `set` at the truth and at the recovery, and as many pairs of
  * Jacobian–vector products for dᵀF d; summarises them against
- * `threshold` (relative error) and writes <scene->output>/gradient_check.exr.
- * On failure msg receives "<what or file>: <reason>". */
+ * `threshold` (relative error) and writes <scene->output>/gradient_check.exr
+ * (maps) and gradient_check.csv (the summary, replaced whole). On failure msg receives "<what or file>: <reason>". */
 hetinv_result_t gradient_check_compare(hetinv_context_t *ctx, const recon_scene_t *scene,
                                        const hetinv_measurements_t *set, const hetinv_medium_t *truth,
                                        const hetinv_medium_t *recovery, int32_t replicates, double threshold,
