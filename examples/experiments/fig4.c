@@ -162,8 +162,13 @@
  * 15 % the loss still pulls back to the truth beyond 3 standard errors
  * (the optimizer stopped short), how many sit where it is flat, and the
  * pulled ones' signal-to-noise ratio per render; at the truth, entries
- * beyond 3 standard errors (the data's own noise puts a few there). The
- * maps go to DIR/config<c>_volume<v>/gradient_check.exr.
+ * beyond 3 standard errors (the data's own noise puts a few there). It
+ * also prints dᵀF d, how far apart the data hold the truth and the
+ * recovery (d their difference, F the data's Fisher information at the
+ * truth, from paired Jacobian-vector products), against the χ² of the
+ * free entries that an efficient unbiased recovery would show. The maps
+ * go to DIR/config<c>_volume<v>/gradient_check.exr, the summary to
+ * gradient_check.csv beside them.
  *
  * --init-truth is a diagnostic: every cell's optimizer starts at its truth
  * and runs the finest level alone (same iterations and photons). A

@@ -33,7 +33,8 @@
  * renders at the truth and at the recovery (is each missed voxel still
  * pulled back, or does it sit where the loss is flat?) and dᵀF d, how far
  * apart the data hold the two against what an efficient recovery would
- * show; maps in gradient_check.exr. One MPI rank.
+ * show; maps in gradient_check.exr, the summary in gradient_check.csv.
+ * One MPI rank.
  *
  * --write-scene writes a simulated scene (the built-in one, or a scene's
  * medium/imaging preset) as the files a user edits and runs: the render
