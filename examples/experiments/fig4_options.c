@@ -22,7 +22,9 @@ static int usage(const char *what) {
           "                   [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]\n"
-          "                   [--fit-replicates N] [--gradient-check N]\n",
+          "                   [--fit-replicates N] [--gradient-check N] [--polish N] [--polish-steps S]\n"
+          "                   [--polish-fisher R] [--polish-fisher-photons N]\n"
+          "                   [--polish-damping D] [--polish-max-step S] [--polish-cg N]\n",
           what);
   return 2;
 }
@@ -61,6 +63,8 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .volumes = -1, .iterations = -1, .photons = -1, .minibatch = -1, .grid = -1, .threads = -1,
       .truth_photons = -1, .coarse_window = -1,
       .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4, .gradient_replicates = 0,
+      .polish_replicates = 0, .polish_steps = 2, .polish_fisher = 2, .polish_damping = 0.01,
+      .polish_fisher_photons = 0, .polish_cg = 0, .polish_max_step = 0.05,
       .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0, .coarse_epsilon_start = -1.0, .settle_epsilon = -1.0, .settle_fraction = -1.0,
       .loss_clip = -1.0, .loss_clip_errors = -1, .min_snr_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
       .coordinates = -1,
@@ -88,6 +92,27 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       ++i;
     } else if (strcmp(a, "--gradient-check") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 2, 1000, &o->gradient_replicates) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--polish") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 2, 1000, &o->polish_replicates) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--polish-steps") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 100, &o->polish_steps) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--polish-fisher") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 2, 1000, &o->polish_fisher) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--polish-fisher-photons") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, INT64_C(1) << 40, &o->polish_fisher_photons) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--polish-cg") == 0) {
+      if (recon_parse_count("hetinv-fig4", a, next, 1, 100000, &o->polish_cg) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--polish-max-step") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1e3, &o->polish_max_step) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--polish-damping") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1e3, &o->polish_damping) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--bound") == 0) {
       o->bound = true;
@@ -235,6 +260,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
   if (o->fit && (o->write_scenes || o->bound_only)) return usage("--fit-check needs the cells' recoveries");
   if (o->gradient_replicates > 0 && (o->write_scenes || o->bound_only)) {
     return usage("--gradient-check needs the cells' recoveries");
+  }
+  if (o->polish_replicates > 0 && (o->write_scenes || o->bound_only)) {
+    return usage("--polish needs the cells' recoveries");
   }
   if ((o->settle_epsilon > 0.0) != (o->settle_fraction > 0.0)) {
     return usage("--settle-epsilon and --settle-fraction go together");

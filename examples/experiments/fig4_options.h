@@ -18,6 +18,9 @@ typedef struct fig4_options {
   int64_t iterations, photons, minibatch, grid, threads, truth_photons, coarse_window, seed;
   int64_t bound_photons, bound_replicates, fit_photons, fit_replicates;
   int64_t gradient_replicates; /* --gradient-check N; 0: none */
+  /* --polish N (gradients per step; 0: none), --polish-steps, --polish-fisher, --polish-fisher-photons, --polish-damping, --polish-max-step, --polish-cg */
+  int64_t polish_replicates, polish_steps, polish_fisher, polish_fisher_photons, polish_cg;
+  double polish_damping, polish_max_step;
   double scale, epsilon, min_snr, decay, coarse_fraction, epsilon_start, coarse_epsilon_start, settle_epsilon, settle_fraction, loss_clip, smoothness, multiscale, box_margin;
   int coordinates, loss_clip_errors, min_snr_errors;
   /* --coarse-levels: the coarser stages' cells per axis, increasing; -1:
