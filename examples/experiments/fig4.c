@@ -179,9 +179,13 @@
  * --polish-fisher-photons, default the run's --photons), μ from
  * --polish-damping (default 0.01, raised ×4 until the matrix factors)
  * and the step shortened to --polish-max-step (default 0.05) of the box
- * widths, RMS. Per step errors, loss and damping are printed and kept in
- * polish.csv; with --gradient-check the check then measures the polished
- * recovery.
+ * widths, RMS; --polish-cg N solves by at most N conjugate-gradient
+ * iterations instead, stopped at the first curvature <= 0. F̂ is kept in
+ * polish_fisher.bin beside the cell and reused by a later polish of the
+ * same recovery. Per step errors, loss and damping are printed and kept
+ * in polish.csv; with --gradient-check the check then measures the
+ * polished recovery. Measured in docs/results/fig4.md (fifteenth
+ * sitting): not a remedy at the paper's size.
  *
  * --init-truth is a diagnostic: every cell's optimizer starts at its truth
  * and runs the finest level alone (same iterations and photons). A
