@@ -47,6 +47,7 @@ typedef struct polish_step {
   double damping;        /* the μ that factored (Cholesky) or was given (CG) */
   int32_t cg_iterations; /* CG: iterations taken */
   int cg_negative;       /* CG: 1 if a direction of curvature ≤ 0 stopped it */
+  double residual;       /* ‖(H + μ·diag H)δ + g‖ ÷ ‖g‖ before the trust region: ~1e-12 for Cholesky */
   double predicted;      /* the model's decrease −(ĝᵀδ + ½δᵀAδ) with A without μ */
   double step_rms;       /* RMS of δ ÷ each entry's box width, before the trust region shortened it */
   size_t clipped;        /* entries the box cut */
