@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "hetinv/bound.h"
+#include "polish.h"
 
 static int usage(const char *what) {
   fprintf(stderr,
@@ -100,7 +101,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, 100, &o->polish_steps) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--polish-fisher") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 2, 1000, &o->polish_fisher) < 0) return 2;
+      if (recon_parse_count("hetinv-fig4", a, next, 2, POLISH_MAX_FISHER_REPLICATES, &o->polish_fisher) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--polish-fisher-photons") == 0) {
       if (recon_parse_count("hetinv-fig4", a, next, 1, INT64_C(1) << 40, &o->polish_fisher_photons) < 0) return 2;
@@ -263,6 +264,13 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
   }
   if (o->polish_replicates > 0 && (o->write_scenes || o->bound_only)) {
     return usage("--polish needs the cells' recoveries");
+  }
+  if (o->polish_replicates * o->polish_steps > POLISH_MAX_GRADIENTS) {
+    char msg[200];
+    snprintf(msg, sizeof msg, "--polish %lld with --polish-steps %lld renders %lld gradients; at most %d",
+             (long long)o->polish_replicates, (long long)o->polish_steps,
+             (long long)(o->polish_replicates * o->polish_steps), POLISH_MAX_GRADIENTS);
+    return usage(msg);
   }
   if ((o->settle_epsilon > 0.0) != (o->settle_fraction > 0.0)) {
     return usage("--settle-epsilon and --settle-fraction go together");

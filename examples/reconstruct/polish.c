@@ -107,10 +107,15 @@ static hetinv_result_t mean_gradient(hetinv_estimator_t *est, const hetinv_mediu
  * the stored recovery and its photons: it is kept beside the cell in
  * polish_fisher.bin (a header line naming what it was taken with, then
  * k·k doubles in this machine's byte order) and read back by a later
- * polish of the same recovery with the same settings. */
-static void fisher_header(char *line, size_t size, size_t k, double photons, int32_t replicates) {
-  snprintf(line, size, "hetinv polish Fisher matrix: k=%zu photons=%.0f replicates=%d stream=%d\n", k, photons,
-           (int)replicates, POLISH_FISHER_STREAM);
+ * polish of the same recovery (its entries' hash) with the same settings. */
+static void fisher_header(char *line, size_t size, const double *pi, size_t k, double photons, int32_t replicates) {
+  /* FNV-1a of the recovery's entries: a polished copy polished again must
+   * not reuse the matrix of the recovery it replaced. */
+  uint64_t hash = UINT64_C(14695981039346656037);
+  const unsigned char *b = (const unsigned char *)pi;
+  for (size_t i = 0; i < k * sizeof *pi; ++i) hash = (hash ^ b[i]) * UINT64_C(1099511628211);
+  snprintf(line, size, "hetinv polish Fisher matrix: k=%zu photons=%.0f replicates=%d stream=%d recovery=%016llx\n", k,
+           photons, (int)replicates, POLISH_FISHER_STREAM, (unsigned long long)hash);
 }
 
 static int fisher_load(const recon_scene_t *sc, const char *header, double *f, size_t k) {
@@ -118,8 +123,8 @@ static int fisher_load(const recon_scene_t *sc, const char *header, double *f, s
   snprintf(path, sizeof path, "%s/polish_fisher.bin", sc->output);
   FILE *in = fopen(path, "rb");
   if (in == NULL) return -1;
-  int ok = fgets(line, sizeof line, in) != NULL && strcmp(line, header) == 0 && fread(f, sizeof *f, k * k, in) == k * k &&
-           fgetc(in) == EOF;
+  int ok = fgets(line, sizeof line, in) != NULL && strcmp(line, header) == 0 &&
+           fread(f, sizeof *f, k * k, in) == k * k && fgetc(in) == EOF;
   fclose(in);
   return ok ? 0 : -1;
 }
@@ -152,7 +157,7 @@ static hetinv_result_t curvature(hetinv_estimator_t *est, const recon_scene_t *s
   hetinv_result_t r = hetinv_estimator_get_param(est, HETINV_ESTIMATOR_PHOTONS, &photons);
   double fisher_photons = o->fisher_photons > 0 ? (double)o->fisher_photons : photons;
   char header[256];
-  fisher_header(header, sizeof header, k, fisher_photons, o->fisher_replicates);
+  fisher_header(header, sizeof header, pi, k, fisher_photons, o->fisher_replicates);
   if (r == HETINV_SUCCESS && fisher_load(sc, header, h, k) != 0) {
     r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, POLISH_FISHER_STREAM);
     if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, fisher_photons);
@@ -247,17 +252,17 @@ static int store(const recon_scene_t *sc, const polish_report_t *rep) {
   snprintf(path, sizeof path, "%s/polish.csv", sc->output);
   FILE *out = recon_text_begin(path, tmp, sizeof tmp);
   if (out == NULL) return -1;
-  fprintf(out, "step,loss,loss_se,prior,damping,cg_iterations,cg_negative_curvature,solve_residual,predicted_decrease,step_rms,clipped,"
-               "sigma_a_mean,sigma_a_max,sigma_s_mean,sigma_s_max,g_mean,g_max\n");
+  fprintf(out, "step,loss,loss_se,prior,damping,cg_iterations,cg_negative_curvature,solve_residual,"
+               "predicted_decrease,step_rms,clipped,sigma_a_mean,sigma_a_max,sigma_s_mean,sigma_s_max,g_mean,g_max\n");
   const recon_errors_t *e = &rep->start;
   fprintf(out, "0,,,,,,,,,,,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", e->mean[0], e->max[0], e->mean[1], e->max[1], e->mean[2],
           e->max[2]);
   for (int32_t s = 0; s < rep->count; ++s) {
     const polish_step_t *st = &rep->steps[s];
     e = &st->errors;
-    fprintf(out, "%d,%.9g,%.3g,%.6g,%.4g,%d,%d,%.3g,%.6g,%.4g,%zu,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", (int)s + 1, st->loss,
-            st->loss_se, st->prior, st->damping, (int)st->cg_iterations, st->cg_negative, st->residual, st->predicted, st->step_rms, st->clipped, e->mean[0], e->max[0],
-            e->mean[1], e->max[1], e->mean[2], e->max[2]);
+    fprintf(out, "%d,%.9g,%.3g,%.6g,%.4g,%d,%d,%.3g,%.6g,%.4g,%zu,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", (int)s + 1,
+            st->loss, st->loss_se, st->prior, st->damping, (int)st->cg_iterations, st->cg_negative, st->residual, st->predicted,
+            st->step_rms, st->clipped, e->mean[0], e->max[0], e->mean[1], e->max[1], e->mean[2], e->max[2]);
   }
   return recon_text_commit(out, tmp, path);
 }

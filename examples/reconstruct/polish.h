@@ -16,11 +16,13 @@
  * prior's exact Hessian, ĝ the mean of `replicates` independent gradients
  * of the run's loss over every source (the run's photons, clip and gain
  * mode) and μ a Levenberg–Marquardt damping raised (×4) until the matrix
- * factors; a step longer than the trust region is shortened to it. Where the loss is nearly quadratic one step reaches the
- * minimum up to ĝ's Monte Carlo error, which A⁻¹ carries into π: more
- * replicates shrink it as 1/√R. F̂'s own noise changes the path, not the
- * point it converges to (ĝ = 0 there). Every entry of the finest grid is
- * free (the identity map, native coordinates). */
+ * factors; a step longer than the trust region is shortened to it. Where
+ * the loss is nearly quadratic one step reaches the minimum up to ĝ's Monte
+ * Carlo error, which A⁻¹ carries into π: more replicates shrink it as 1/√R.
+ * F̂'s own noise changes the path, not the point it converges to (ĝ = 0
+ * there). Every entry of the finest grid is free (the identity map, native
+ * coordinates). Measured at the paper's size in docs/results/fig4.md
+ * (fifteenth sitting): not a remedy there. */
 #ifndef HETINV_RECON_POLISH_H
 #define HETINV_RECON_POLISH_H
 
@@ -28,6 +30,11 @@
 #include <stdint.h>
 
 #include "recon.h"
+
+/* Streams: step s's gradients take 2·(s·replicates + j) from 62000, F̂'s
+ * replicates 2r from 64000; both stay within the estimator's 65535. */
+#define POLISH_MAX_GRADIENTS 999 /* steps × replicates */
+#define POLISH_MAX_FISHER_REPLICATES 767
 
 typedef struct polish_options {
   int32_t steps;             /* Gauss–Newton steps (≥ 1) */
