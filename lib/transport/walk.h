@@ -22,12 +22,13 @@
 #include "transport/path_log.h"
 
 /* Distance along axis a from the ray's position to the face of its voxel
- * ahead (flo, fhi: the voxel's faces on that axis), >= 0. The face is
- * picked by an index, not a branch (d > 0: fhi); the sign of d makes the
+ * ahead (face[0], face[1]: the voxel's faces on that axis, in the grid's
+ * face array), >= 0. The face is picked by an index, not a branch (d > 0:
+ * face[1]), and loaded from the array by it: a pair copied into a local
+ * array first cost a store and a reload per axis. The sign of d makes the
  * distance positive, and d = ±0 gives a distance >= 0 or, rounded, 0. */
-static inline double hv_face_distance(double p, double d, double flo, double fhi) {
-  const double f[2] = {flo, fhi};
-  double dist = (f[d > 0.0] - p) * copysign(1.0, d);
+static inline double hv_face_distance(double p, double d, const double *face) {
+  double dist = (face[d > 0.0] - p) * copysign(1.0, d);
   return dist > 0.0 ? dist : 0.0; /* rounding on a voxel face */
 }
 
@@ -71,7 +72,7 @@ static inline void hv_walk_init(const hv_grid_t *g, const hv_ray_t *r, hv_walk_t
   double dist[3];
   for (int a = 0; a < 3; ++a) {
     const double *f = g->face[a] + r->v[a];
-    dist[a] = hv_face_distance(r->p[a], r->d[a], f[0], f[1]);
+    dist[a] = hv_face_distance(r->p[a], r->d[a], f);
   }
   hv_walk_init_dist(g, r, dist, w);
 }
@@ -202,7 +203,7 @@ HV_ALWAYS_INLINE static inline int hv_ray_march(const hv_grid_t *g, hv_ray_t *r,
   int in = 1;
   for (int a = 0; a < 3; ++a) {
     const double *f = g->face[a] + r->v[a];
-    dist_face[a] = hv_face_distance(r->p[a], r->d[a], f[0], f[1]);
+    dist_face[a] = hv_face_distance(r->p[a], r->d[a], f);
     in &= x * fabs(r->d[a]) <= dist_face[a]; /* false for NaN and inf: vacuum voxels step */
   }
   if (in) {
@@ -259,7 +260,7 @@ static inline double hv_ray_to_boundary_axis(const hv_grid_t *g, hv_ray_t *r, in
   int f = 2 * a + up;
   double ainv = 1.0 / fabs(r->d[a]);
   const double *fa = g->face[a] + r->v[a];
-  double first = hv_face_distance(r->p[a], r->d[a], fa[0], fa[1]) * ainv;
+  double first = hv_face_distance(r->p[a], r->d[a], fa) * ainv;
   int64_t k = r->k;
   double depth = g->voxel[k].sigma_t * first + g->axis_depth[f][k] * ainv;
   int32_t last = up ? g->n[a] - 1 : 0, left = up ? last - r->v[a] : r->v[a];
@@ -327,7 +328,7 @@ HV_ALWAYS_INLINE static inline int64_t hv_walk_segment(const hv_grid_t *g, hv_ra
   int in = 1;
   for (int a = 0; a < 3; ++a) {
     const double *f = g->face[a] + r->v[a];
-    dist[a] = hv_face_distance(r->p[a], r->d[a], f[0], f[1]);
+    dist[a] = hv_face_distance(r->p[a], r->d[a], f);
     in &= length * fabs(r->d[a]) <= dist[a];
   }
   if (in) {
