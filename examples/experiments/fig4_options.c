@@ -178,10 +178,10 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->epsilon_start) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--settle-epsilon") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->settle_epsilon) < 0) return 2;
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1.0, &o->settle_epsilon) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--settle-fraction") == 0) {
-      if (recon_parse_real("hetinv-fig4", a, next, 1e-6, 0.999999, &o->settle_fraction) < 0) return 2;
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &o->settle_fraction) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--coarse-epsilon-start") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->coarse_epsilon_start) < 0) return 2;
@@ -272,8 +272,11 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
              (long long)(o->polish_replicates * o->polish_steps), POLISH_MAX_GRADIENTS);
     return usage(msg);
   }
-  if ((o->settle_epsilon > 0.0) != (o->settle_fraction > 0.0)) {
+  if ((o->settle_epsilon >= 0.0) != (o->settle_fraction >= 0.0)) {
     return usage("--settle-epsilon and --settle-fraction go together");
+  }
+  if ((o->settle_epsilon == 0.0) != (o->settle_fraction == 0.0)) {
+    return usage("--settle-epsilon 0 (no settling part) goes with --settle-fraction 0, and only with it");
   }
   if (o->volumes < 0) o->volumes = o->full ? 5 : 2;
   if (o->scale < 0.0) o->scale = o->full ? 0.1 : 1.0;
@@ -296,7 +299,7 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->stage_results) sc->stage_results = true;
   if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
   if (o->coarse_epsilon_start > 0.0) sc->coarse_epsilon_start = o->coarse_epsilon_start;
-  if (o->settle_epsilon > 0.0) {
+  if (o->settle_epsilon >= 0.0) { /* 0 (with fraction 0): none, (2)'s --full default off */
     sc->settle_epsilon = o->settle_epsilon;
     sc->settle_fraction = o->settle_fraction;
   }
