@@ -276,7 +276,11 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
     return usage("--settle-epsilon and --settle-fraction go together");
   }
   if ((o->settle_epsilon == 0.0) != (o->settle_fraction == 0.0)) {
-    return usage("--settle-epsilon 0 (no settling part) goes with --settle-fraction 0, and only with it");
+    char msg[200];
+    snprintf(msg, sizeof msg,
+             "--settle-epsilon 0 (no settling part) goes with --settle-fraction 0, and only with it; given %g and %g",
+             o->settle_epsilon, o->settle_fraction);
+    return usage(msg);
   }
   if (o->volumes < 0) o->volumes = o->full ? 5 : 2;
   if (o->scale < 0.0) o->scale = o->full ? 0.1 : 1.0;
