@@ -79,8 +79,8 @@
  * (optimizer.coarse_epsilon_start); --settle-epsilon E --settle-fraction F
  * run the finest stage's last fraction F at ε E and average those
  * iterates (optimizer.settle_epsilon, settle_fraction; both or neither;
- * off by default, except (2) with --full: 0.0005 over 0.4; 0 and 0 turn
- * it off); --coarse-window N makes each coarse stage hand
+ * off by default, except (2) and (4) with --full: 0.0005 over 0.4; 0 and
+ * 0 turn it off); --coarse-window N makes each coarse stage hand
  * on the mean of its last N iterates (optimizer.coarse_average_window;
  * default 150 with --full; 0, the reduced default, means the run's window,
  * which at full size is longer than a coarse stage, so it would hand on
@@ -255,7 +255,7 @@ static void make_scene(recon_scene_t *sc, const fig4_options_t *o, int c, int v)
      * start is 4× the truth there) and 2000 iterations left it +16 % on
      * volume 2; 4000 lowered 11 of 12 figures on volumes 1-2, chosen
      * before volumes 3-5 ran (docs/results/fig4.md, with its cost).
-     * (4) runs 4000 too, since the smoothness prior below holds the
+     * (4) went to 4000 too (5000 below), since the smoothness prior holds the
      * clusters its data do not split: the longer run removed the σa band
      * volume 3's coarse stages hand on; chosen on volume 6 (4 of 6
      * figures lower), it lowered 22 of volumes 1-5's 30 figures. (1)

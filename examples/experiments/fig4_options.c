@@ -303,7 +303,7 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->stage_results) sc->stage_results = true;
   if (o->epsilon_start > 0.0) sc->epsilon_start = o->epsilon_start;
   if (o->coarse_epsilon_start > 0.0) sc->coarse_epsilon_start = o->coarse_epsilon_start;
-  if (o->settle_epsilon >= 0.0) { /* 0 (with fraction 0): none, (2)'s --full default off */
+  if (o->settle_epsilon >= 0.0) { /* 0 (with fraction 0): none, (2) and (4)'s --full default off */
     sc->settle_epsilon = o->settle_epsilon;
     sc->settle_fraction = o->settle_fraction;
   }
