@@ -14,7 +14,7 @@
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N] [--seed N]
  *               [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]
- *               [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]
+ *               [--method adadelta|sgd|adagrad|adam] [--rate R] [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]
  *               [--fit-replicates N]
@@ -71,7 +71,10 @@
  * --minibatch N sets the sources drawn per iteration (default 16); with
  * --photons it trades sources against photons per source at a fixed
  * number of paths per iteration, which tells the minibatch's sampling
- * noise apart from each source's Monte Carlo noise. --epsilon E sets
+ * noise apart from each source's Monte Carlo noise. --method M steps with
+ * M instead of ADADELTA (optimizer.method), --rate R at step size R
+ * (optimizer.learning_rate, default 0.01; the ε schedule below scales it
+ * as it scales ADADELTA's ε). --epsilon E sets
  * ADADELTA's ε (default 0.003, 0.0015 with --full), the scale of its
  * steps once the gradient is mostly noise; --epsilon-start E starts the
  * finest stage at that ε, falling linearly to --epsilon's by its middle

@@ -89,7 +89,10 @@ enum hetinv_optimizer_param_id {
    *  smaller value gives a steadier result but a slower start
    *  (hetinv-reconstruct uses 0.003) (default 0.01; (0, 1]). */
   HETINV_OPTIMIZER_EPSILON = 2,
-  /** Step size of SGD, AdaGrad and Adam (default 0.01; (0, 1e12]). */
+  /** Step size of SGD, AdaGrad and Adam (default 0.01; (0, 1e12]). A
+   *  stage's ε schedule (hetinv_stage_t.epsilon_start, settle_epsilon)
+   *  scales it by the schedule's ε over HETINV_OPTIMIZER_EPSILON, so the
+   *  schedule means the same for every method. */
   HETINV_OPTIMIZER_LEARNING_RATE = 3,
   /** Adam's β1 (default 0.9; [0, 1)). */
   HETINV_OPTIMIZER_BETA1 = 4,

@@ -138,9 +138,12 @@ double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double eps
   double b1 = par[HETINV_OPTIMIZER_BETA1], b2 = par[HETINV_OPTIMIZER_BETA2];
   /* Adam's bias corrections, for the stage's iteration t = 1, 2, ... */
   double t = (double)(opt->stage_iteration + 1);
-  method_t m = {(int)par[HETINV_OPTIMIZER_METHOD], par[HETINV_OPTIMIZER_DECAY],
-                epsilon,
-                par[HETINV_OPTIMIZER_LEARNING_RATE], b1, b2, 1.0 - pow(b1, t), 1.0 - pow(b2, t)};
+  /* A stage's ε schedule (epsilon_start, settling) scales the other
+   * methods' step size by the same factor as ADADELTA's ε: exactly 1 where
+   * the stage runs at the tunable. */
+  double rate = par[HETINV_OPTIMIZER_LEARNING_RATE] * (epsilon / par[HETINV_OPTIMIZER_EPSILON]);
+  method_t m = {(int)par[HETINV_OPTIMIZER_METHOD], par[HETINV_OPTIMIZER_DECAY], epsilon, rate, b1, b2,
+                1.0 - pow(b1, t), 1.0 - pow(b2, t)};
   int coordinates = (int)par[HETINV_OPTIMIZER_COORDINATES];
   bool mean_ratio = coordinates == HETINV_COORDINATES_LOG_MEAN_RATIO;
   bool reduced = coordinates == HETINV_COORDINATES_REDUCED || coordinates == HETINV_COORDINATES_LOG_REDUCED;

@@ -111,7 +111,8 @@ hetinv_result_t hv_minibatch_set(const hetinv_optimizer_t *opt, const int32_t *p
                                  hetinv_measurements_t **out);
 
 /* methods.c: one step of the optimizer's method on the stage's entries,
- * ADADELTA's ε given (hv_stage_epsilon); returns the RMS of the step
+ * ADADELTA's ε given (hv_stage_epsilon; the other methods' step size
+ * follows it relative to the tunable ε); returns the RMS of the step
  * relative to the scales. */
 double hv_method_step(hetinv_optimizer_t *opt, const uint8_t *frozen, double epsilon);
 /* ADADELTA's ε at the current iteration of the current stage. */

@@ -603,7 +603,8 @@ static void adadelta_steps_with_the_stage_epsilon(void **state) {
   }
 }
 
-/* SGD, AdaGrad and Adam in scaled coordinates, with projection. */
+/* SGD, AdaGrad and Adam in scaled coordinates, with projection, at the
+ * stage's ε relative to the tunable's. */
 static void other_methods_step_as_documented(void **state) {
   (void)state;
   hand_t h;
@@ -639,6 +640,18 @@ static void other_methods_step_as_documented(void **state) {
   hv_method_step(&h.opt, NULL, 0.01);
   assert_close(h.pi[0], 4.1 - 0.9 * (4.0 / 3.0) * sqrt(0.4375), 1e-14);
   assert_true(h.pi[1] == 5 && h.pi[2] == 0.2);
+  /* A stage's ε schedule scales their step size by its ε over the
+   * tunable's (0.01): at 0.0025 SGD moves a quarter as far, Adam's first
+   * step 0.9 / 4. */
+  hand_init(&h, HETINV_METHOD_SGD);
+  h.grad[1] = -0.05;
+  hv_method_step(&h.opt, NULL, 0.0025);
+  assert_close(h.pi[1], 5 + 0.25 * 0.1 * 81 * 0.05, 1e-14);
+  hand_init(&h, HETINV_METHOD_ADAM);
+  h.grad[0] = 2;
+  h.opt.stage_iteration = 0;
+  hv_method_step(&h.opt, NULL, 0.0025);
+  assert_close(h.pi[0], 5 - 0.9 / 4, 1e-14);
 }
 
 /* Reduced coordinates: σs (entry 0) and g (entry 2) of one cell step as
