@@ -101,6 +101,9 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
     key_append(key, key_size, " method=%d decay=%.17g coarse_fraction=%.17g average_window=%lld rate=%.17g",
              (int)sc->method, sc->decay, sc->coarse_fraction, (long long)sc->average_window, sc->learning_rate);
   }
+  if (sc->method == HETINV_METHOD_ADAM && (sc->beta1 != 0.9 || sc->beta2 != 0.999)) {
+    key_append(key, key_size, " beta1=%.17g beta2=%.17g", sc->beta1, sc->beta2);
+  }
 }
 
 static const char *const NAMES[3] = {"sigma_a", "sigma_s", "g"};

@@ -14,7 +14,8 @@
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
  *               [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N] [--seed N]
  *               [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]
- *               [--method adadelta|sgd|adagrad|adam] [--rate R] [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]
+ *               [--method adadelta|sgd|adagrad|adam] [--rate R] [--beta1 B] [--beta2 B]
+ *               [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]
  *               [--write-scenes] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]
  *               [--fit-replicates N]
@@ -74,7 +75,8 @@
  * noise apart from each source's Monte Carlo noise. --method M steps with
  * M instead of ADADELTA (optimizer.method), --rate R at step size R
  * (optimizer.learning_rate, default 0.01; the ε schedule below scales it
- * as it scales ADADELTA's ε). --epsilon E sets
+ * as it scales ADADELTA's ε), --beta1 B and --beta2 B with Adam's decays
+ * (optimizer.beta1, beta2; default 0.9 and 0.999). --epsilon E sets
  * ADADELTA's ε (default 0.003, 0.0015 with --full), the scale of its
  * steps once the gradient is mostly noise; --epsilon-start E starts the
  * finest stage at that ε, falling linearly to --epsilon's by its middle

@@ -20,7 +20,7 @@ static int usage(const char *what) {
           "                   [--expected-camera-errors] [--residual-weights]\n"
           "                   [--smoothness L] [--multiscale A] [--box-margin M] [--truth-photons N] [--seed N]\n"
           "                   [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--grid N] [--scale S]\n"
-          "                   [--method adadelta|sgd|adagrad|adam] [--rate R]\n"
+          "                   [--method adadelta|sgd|adagrad|adam] [--rate R] [--beta1 B] [--beta2 B]\n"
           "                   [--min-snr S] [--min-snr-errors data|residual] [--threads N] [-o DIR] [--quiet]\n"
           "                   [--write-scenes] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-from DIR] [--init-truth] [--init-geometric] [--fit-check] [--fit-photons N]\n"
@@ -69,7 +69,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .polish_fisher_photons = 0, .polish_cg = 0, .polish_max_step = 0.05,
       .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0, .coarse_epsilon_start = -1.0, .settle_epsilon = -1.0, .settle_fraction = -1.0,
       .loss_clip = -1.0, .loss_clip_errors = -1, .min_snr_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
-      .coordinates = -1, .method = -1, .rate = -1.0,
+      .coordinates = -1, .method = -1, .rate = -1.0, .beta1 = -1.0, .beta2 = -1.0,
   };
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
@@ -233,6 +233,12 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
     } else if (strcmp(a, "--rate") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 1e-9, 1.0, &o->rate) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--beta1") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &o->beta1) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--beta2") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &o->beta2) < 0) return 2;
+      ++i;
     } else if (strcmp(a, "--coordinates") == 0) {
       if (recon_parse_choice("hetinv-fig4", a, next, recon_coordinate_names, &o->coordinates) < 0) return 2;
       ++i;
@@ -298,6 +304,8 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->coordinates >= 0) sc->coordinates = o->coordinates;
   if (o->method >= 0) sc->method = o->method;
   if (o->rate > 0.0) sc->learning_rate = o->rate;
+  if (o->beta1 >= 0.0) sc->beta1 = o->beta1;
+  if (o->beta2 >= 0.0) sc->beta2 = o->beta2;
   if (o->decay >= 0.0) sc->decay = o->decay;
   if (o->coarse_fraction > 0.0) sc->coarse_fraction = o->coarse_fraction;
   if (o->coarse_level_count >= 0 && !sc->init_at_truth) { /* from the truth: the finest level alone already */

@@ -167,6 +167,10 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   }
   put_member(f, ", ", "decay", sc->decay);
   put_member(f, ",\n                ", "learning_rate", sc->learning_rate);
+  if (sc->method == HETINV_METHOD_ADAM) {
+    put_member(f, ", ", "beta1", sc->beta1);
+    put_member(f, ", ", "beta2", sc->beta2);
+  }
   fprintf(f, ", \"average_window\": %d, ", (int)sc->average_window);
   if (sc->coarse_average_window > 0) fprintf(f, "\"coarse_average_window\": %d, ", (int)sc->coarse_average_window);
   put_member(f, "", "time_budget", sc->time_budget);

@@ -153,6 +153,7 @@ typedef struct recon_scene {
   double coarse_fraction;       /* iterations of each coarser stage, relative */
   int32_t minibatch;
   double epsilon, decay, learning_rate;
+  double beta1, beta2;          /* Adam's decays */
   double epsilon_start;         /* the finest stage's ADADELTA ε at its start (0: epsilon throughout) */
   double coarse_epsilon_start;  /* each coarser stage's ADADELTA ε at its start (0: epsilon throughout) */
   double settle_epsilon;        /* the finest stage's ADADELTA ε over its last settle_fraction (0: none) */

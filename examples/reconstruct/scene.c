@@ -91,6 +91,8 @@ void recon_scene_default(recon_scene_t *sc) {
    * max errors in g) while the coarse stages still converge. */
   sc->epsilon = 0.003;
   sc->decay = 0.95;
+  sc->beta1 = 0.9;
+  sc->beta2 = 0.999;
   sc->learning_rate = 0.01;
   sc->average_window = 0; /* automatic: the second half of the finest stage */
   double blo[3] = {1.0, 1.0, 0.0}, bhi[3] = {10.0, 10.0, 0.6};
@@ -385,7 +387,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
-                                        "epsilon_start", "coarse_epsilon_start", "settle_epsilon", "settle_fraction", "decay", "learning_rate", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
+                                        "epsilon_start", "coarse_epsilon_start", "settle_epsilon", "settle_fraction", "decay", "learning_rate", "beta1", "beta2", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
                                         "init", "levels", "layerwise_layers", "stage_results", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
@@ -414,6 +416,10 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   }
   if (jr_number(jr, o, "optimizer", "decay", JR_OPTIONAL, &sc->decay) < 0) return -1;
   if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;
+  if (jr_number(jr, o, "optimizer", "beta1", JR_OPTIONAL, &sc->beta1) < 0) return -1;
+  if (jr_number(jr, o, "optimizer", "beta2", JR_OPTIONAL, &sc->beta2) < 0) return -1;
+  if (!(sc->beta1 >= 0.0 && sc->beta1 < 1.0)) return jr_fail(jr, "optimizer.beta1", "is %g; it must be in [0, 1)", sc->beta1);
+  if (!(sc->beta2 >= 0.0 && sc->beta2 < 1.0)) return jr_fail(jr, "optimizer.beta2", "is %g; it must be in [0, 1)", sc->beta2);
   if (read_int32(jr, o, "optimizer", "average_window", 0, 4096, &sc->average_window) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "coarse_average_window", 0, 4096, &sc->coarse_average_window) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "time_budget", JR_OPTIONAL, &sc->time_budget) < 0) return -1;

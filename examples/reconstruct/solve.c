@@ -106,6 +106,8 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *s
       {HETINV_OPTIMIZER_EPSILON, sc->epsilon},
       {HETINV_OPTIMIZER_DECAY, sc->decay},
       {HETINV_OPTIMIZER_LEARNING_RATE, sc->learning_rate},
+      {HETINV_OPTIMIZER_BETA1, sc->beta1},
+      {HETINV_OPTIMIZER_BETA2, sc->beta2},
       {HETINV_OPTIMIZER_AVERAGE_WINDOW, (double)window},
       {HETINV_OPTIMIZER_TIME_BUDGET, sc->time_budget},
       {HETINV_OPTIMIZER_SMOOTHNESS, sc->smoothness},
