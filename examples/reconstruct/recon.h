@@ -154,6 +154,7 @@ typedef struct recon_scene {
   int32_t minibatch;
   double epsilon, decay, learning_rate;
   double beta1, beta2;          /* Adam's decays */
+  /* The ε schedules: ADADELTA's ε, and the other methods' learning_rate scaled by their ε over epsilon. */
   double epsilon_start;         /* the finest stage's ADADELTA ε at its start (0: epsilon throughout) */
   double coarse_epsilon_start;  /* each coarser stage's ADADELTA ε at its start (0: epsilon throughout) */
   double settle_epsilon;        /* the finest stage's ADADELTA ε over its last settle_fraction (0: none) */

@@ -231,6 +231,8 @@ typedef struct hetinv_stage {
    *  HETINV_OPTIMIZER_EPSILON (in [1e-12, 1]); it falls linearly to that
    *  tunable over the stage's first half and stays there: far moves early,
    *  then the tunable's small steps for the iterates the result averages.
+   *  Under SGD, AdaGrad and Adam this and @c settle_epsilon scale
+   *  HETINV_OPTIMIZER_LEARNING_RATE by their ε over the tunable's.
    *  0 = the tunable throughout. Added in 0.2. */
   double epsilon_start;
   /** The trailing iterates this stage's result averages (the next stage's

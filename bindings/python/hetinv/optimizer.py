@@ -112,7 +112,9 @@ class Optimizer(Handle):
         average_window: the trailing iterates the stage's result averages
         (at most the "average_window" tunable); 0: that tunable, or the
         settling part. settle_epsilon: ADADELTA's relative epsilon over the
-        stage's last settle_fraction of iterations (0: none)."""
+        stage's last settle_fraction of iterations (0: none). Under SGD,
+        AdaGrad and Adam both scale "learning_rate" by their epsilon over the
+        "epsilon" tunable."""
         me = self._ptr
         handle_arg(param_map, ParamMap, "param_map")
         f = _mask_bytes(frozen, param_map.size, "frozen")
