@@ -306,7 +306,7 @@ static void bad_arguments_get_precise_errors(void **state) {
  * the truth's values (reflected and transmitted light of two beams, a
  * 1 mm cube with σs = 4/mm; σs is the one unknown besides the gain). From
  * σs = 1.5, ADADELTA with the global gain moves σs most of the way to the
- * truth (the criterion of optimize_optimizer's every_method_moves_sigma_s_
+ * truth (the criterion of optimize_steps's every_method_moves_sigma_s_
  * toward_the_truth) and the gain fitted at the result is near 3; the run
  * without the gain mode, on the same data, ends farther from the truth
  * (during development, seed 21: 3.88 and gain 3.04 with it, 8.28 without;

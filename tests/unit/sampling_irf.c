@@ -312,7 +312,7 @@ static void times_convert_to_pathlengths_in_the_medium(void **state) {
 /* A layer-wise stage keeps a bin only if no path that reaches below the
  * layer can be scored in it. Through an IRF with a tap at offset -0.5 a
  * path of length τ is also scored at τ - 0.5, so a bin [c - w/2, c + w/2)
- * collects paths up to c + w/2 + 0.5: the mask of optimize_optimizer's
+ * collects paths up to c + w/2 + 0.5: the mask of optimize_stages's
  * layerwise test with every window end moved 0.5 later. */
 static void layerwise_masks_count_the_irf_early_tap(void **state) {
   (void)state;
