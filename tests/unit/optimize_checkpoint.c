@@ -17,7 +17,7 @@
 #include "optimize_problem.h"
 
 /* ------------------------------------------------------------------------ */
-/* 7. Checkpoints: kill a run half-way, resume it, compare bitwise. */
+/* 1. Checkpoints: kill a run half-way, resume it, compare bitwise. */
 
 static int kill_at(const hetinv_progress_t *progress, void *user) {
   const int64_t *at = user;

@@ -225,7 +225,7 @@ static void stage_and_create_errors(void **state) {
 }
 
 /* ------------------------------------------------------------------------ */
-/* 9. NULL arguments. */
+/* 2. NULL arguments. */
 
 static void null_arguments_are_refused(void **state) {
   const problem_t *p = *state;

@@ -8,7 +8,7 @@
 #include "optimize_problem.h"
 
 /* ------------------------------------------------------------------------ */
-/* 4. Minibatches. */
+/* 1. Minibatches. */
 
 static void run_minibatch(const problem_t *p, outcome_t *o) {
   setup_t s = coarse_setup(p);
@@ -75,7 +75,7 @@ static void minibatches_keep_the_clip_scales(void **state) {
 }
 
 /* ------------------------------------------------------------------------ */
-/* 5. Stopping rules and progress. */
+/* 2. Stopping rules and progress. */
 
 static void stages_run_their_counts_with_right_progress(void **state) {
   const problem_t *p = *state;
@@ -238,7 +238,7 @@ static void the_callback_stops_and_run_continues(void **state) {
 }
 
 /* ------------------------------------------------------------------------ */
-/* 6. Multi-resolution: stage 2 starts from stage 1's averaged result. */
+/* 3. Multi-resolution: stage 2 starts from stage 1's averaged result. */
 
 /* A stage whose epsilon_start is the tunable runs bitwise as one without;
  * a larger one moves the run elsewhere; a caller built against the first
@@ -400,7 +400,7 @@ static void the_next_stage_starts_from_the_average(void **state) {
 }
 
 /* ------------------------------------------------------------------------ */
-/* 8. Layer-wise stages (Fig. 2(b)). */
+/* 4. Layer-wise stages (Fig. 2(b)). */
 
 static void layerwise_errors(void **state) {
   const problem_t *steady = *state; /* steady rows only: nothing frontlit and resolved */

@@ -8,7 +8,7 @@
 #include "optimize_problem.h"
 
 /* ------------------------------------------------------------------------ */
-/* 2. One step of every method against a hand computation (white-box). */
+/* 1. One step of every method against a hand computation (white-box). */
 
 typedef struct hand {
   hetinv_optimizer_t opt;
