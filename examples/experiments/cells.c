@@ -96,12 +96,16 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->coordinates != HETINV_COORDINATES_NATIVE) {
     key_append(key, key_size, " coordinates=%s", recon_coordinate_names[sc->coordinates]);
   }
-  if (sc->method != HETINV_METHOD_ADADELTA || sc->decay != 0.95 || sc->coarse_fraction != 0.15 ||
-      sc->average_window != 0 || sc->learning_rate != 0.01) {
+  /* The optimizer's settings enter the key only where they differ from the
+   * scene's defaults, so that cells run before an option existed read back. */
+  recon_scene_t d;
+  recon_scene_default(&d);
+  if (sc->method != d.method || sc->decay != d.decay || sc->coarse_fraction != d.coarse_fraction ||
+      sc->average_window != d.average_window || sc->learning_rate != d.learning_rate) {
     key_append(key, key_size, " method=%d decay=%.17g coarse_fraction=%.17g average_window=%lld rate=%.17g",
              (int)sc->method, sc->decay, sc->coarse_fraction, (long long)sc->average_window, sc->learning_rate);
   }
-  if (sc->method == HETINV_METHOD_ADAM && (sc->beta1 != 0.9 || sc->beta2 != 0.999)) {
+  if (sc->method == HETINV_METHOD_ADAM && (sc->beta1 != d.beta1 || sc->beta2 != d.beta2)) {
     key_append(key, key_size, " beta1=%.17g beta2=%.17g", sc->beta1, sc->beta2);
   }
 }
