@@ -418,8 +418,17 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "beta1", JR_OPTIONAL, &sc->beta1) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "beta2", JR_OPTIONAL, &sc->beta2) < 0) return -1;
-  if (!(sc->beta1 >= 0.0 && sc->beta1 < 1.0)) return jr_fail(jr, "optimizer.beta1", "is %g; it must be in [0, 1)", sc->beta1);
-  if (!(sc->beta2 >= 0.0 && sc->beta2 < 1.0)) return jr_fail(jr, "optimizer.beta2", "is %g; it must be in [0, 1)", sc->beta2);
+  /* Adam's decays within the library's own bounds: refused here, before the
+   * data are simulated, not when the optimizer is configured. */
+  const struct { const char *name; hetinv_optimizer_param_t param; double value; } decays[] = {
+      {"optimizer.beta1", HETINV_OPTIMIZER_BETA1, sc->beta1}, {"optimizer.beta2", HETINV_OPTIMIZER_BETA2, sc->beta2}};
+  for (size_t i = 0; i < sizeof decays / sizeof decays[0]; ++i) {
+    double lo = 0.0, hi = 0.0;
+    hetinv_optimizer_param_bounds(decays[i].param, &lo, &hi);
+    if (!(decays[i].value >= lo && decays[i].value <= hi)) {
+      return jr_fail(jr, decays[i].name, "is %.9g; it must be in [%g, %g]", decays[i].value, lo, hi);
+    }
+  }
   if (read_int32(jr, o, "optimizer", "average_window", 0, 4096, &sc->average_window) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "coarse_average_window", 0, 4096, &sc->coarse_average_window) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "time_budget", JR_OPTIONAL, &sc->time_budget) < 0) return -1;
