@@ -148,7 +148,9 @@ int jr_integer(jr_t *jr, const cJSON *object, const char *path, const char *key,
   int r = fetch(jr, object, path, key, required, &item, at);
   if (r <= 0) return r;
   double v = item != NULL && cJSON_IsNumber(item) ? item->valuedouble : (double)NAN;
-  if (!isfinite(v) || v != floor(v) || v < (double)lo || v > (double)hi) {
+  /* The bounds are compared as integers: (double)hi rounds up for a hi near
+   * INT64_MAX, and converting 2^63 to int64_t is undefined. */
+  if (!isfinite(v) || v != floor(v) || !(v >= -0x1p63 && v < 0x1p63) || (int64_t)v < lo || (int64_t)v > hi) {
     return jr_fail(jr, at, "expected an integer from %lld to %lld, found %s", (long long)lo,
                    (long long)hi, jr_describe(item, buf, sizeof buf));
   }
