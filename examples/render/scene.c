@@ -205,6 +205,22 @@ int scene_check_name(jr_t *jr, const char *path, const char *name, size_t max) {
                  "(not starting with '.', under %zu bytes)", name, max);
 }
 
+/* A row writes <name>.exr, <name>_stderr.exr, <name>_ballistic.exr and
+ * <name>.png (output.c): two rows share a file when their names are equal
+ * or one is the other's plus one of those suffixes. Returns the longer
+ * name, whose .exr both would write, or NULL. */
+static const char *shared_file(const char *a, const char *b) {
+  static const char *const suffixes[] = {"", "_stderr", "_ballistic"};
+  size_t la = strlen(a), lb = strlen(b);
+  const char *longer = la > lb ? a : b, *shorter = la > lb ? b : a;
+  size_t ls = la > lb ? lb : la;
+  if (strncmp(longer, shorter, ls) != 0) return NULL;
+  for (size_t i = 0; i < sizeof suffixes / sizeof suffixes[0]; ++i) {
+    if (strcmp(longer + ls, suffixes[i]) == 0) return longer;
+  }
+  return NULL;
+}
+
 /* The rows: "measurements", or every emitter × every sensor. */
 static int build_rows(scene_t *sc, jr_t *jr) {
   const cJSON *list = NULL;
@@ -290,11 +306,12 @@ static int build_rows(scene_t *sc, jr_t *jr) {
   }
   for (int r = 0; r < sc->row_count; ++r) {
     for (int q = 0; q < r; ++q) {
-      if (strcmp(sc->rows[q].name, sc->rows[r].name) == 0) {
+      const char *file = shared_file(sc->rows[q].name, sc->rows[r].name);
+      if (file != NULL) {
         char at[JR_PATH_MAX] = "measurements";
         if (origin != NULL) jr_index(at, "measurements", origin[r]);
-        jr_fail(jr, at, "two rows would both write files named \"%s\"; give them a \"name\"",
-                sc->rows[r].name);
+        jr_fail(jr, at, "rows \"%s\" and \"%s\" would both write \"%s.exr\"; give them other names",
+                sc->rows[q].name, sc->rows[r].name, file);
         goto fail;
       }
     }
