@@ -65,6 +65,8 @@
 #include "recon.h"
 
 #define PROG "hetinv-bench-reconstruct"
+/* Room "/seed-<n>" takes after -o's path. */
+#define SEED_FOLDER_MAX 32
 
 static void usage(FILE *f) {
   fprintf(f,
@@ -249,6 +251,7 @@ int main(int argc, char **argv) {
       scene_path = v;
       ++i;
     } else if ((strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) && v) {
+      if (recon_parse_folder(PROG, a, v, SEED_FOLDER_MAX) < 0) return 2;
       out_dir = v;
       ++i;
     } else {
@@ -290,14 +293,14 @@ int main(int argc, char **argv) {
   recon_errors_t e;
   double seconds = 0.0;
   if (seed_first < 0) {
-    snprintf(sc.output, sizeof sc.output, "%s", out_dir);
+    (void)recon_scene_set_output(&sc, "%s", out_dir); /* fits: recon_parse_folder */
     status = run_volume(&sc, "reconstruct", require, bound_photons, &e, &seconds);
   } else {
     int64_t passed = 0, count = 0;
     for (int64_t s = seed_first; s <= seed_last; ++s) {
       char tag[64];
       snprintf(tag, sizeof tag, "reconstruct seed=%lld", (long long)s);
-      snprintf(sc.output, sizeof sc.output, "%s/seed-%lld", out_dir, (long long)s);
+      (void)recon_scene_set_output(&sc, "%s/seed-%lld", out_dir, (long long)s); /* fits: SEED_FOLDER_MAX */
       if (outdir_prepare(PROG, sc.output) != 0) {
         status = 1;
         break;

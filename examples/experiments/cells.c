@@ -2,6 +2,7 @@
 #include "cells.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,7 +20,7 @@ static void key_append(char *key, size_t key_size, const char *fmt, ...) {
   va_end(ap);
 }
 
-void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
+bool experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   /* %.17g: the key is equal only for bitwise-equal settings. */
   snprintf(key, key_size,
            "config=%d grid=%dx%dx%d size=%.17g eta=%.17g truth_seed=%llu noise_seed=%llu "
@@ -108,43 +109,112 @@ void experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->method == HETINV_METHOD_ADAM && (sc->beta1 != d.beta1 || sc->beta2 != d.beta2)) {
     key_append(key, key_size, " beta1=%.17g beta2=%.17g", sc->beta1, sc->beta2);
   }
+  return strlen(key) + 1 < key_size; /* a key that filled the buffer may have been cut */
 }
 
 static const char *const NAMES[3] = {"sigma_a", "sigma_s", "g"};
 
-/* <dir>/<file> open after its first line "key,<key>"; NULL if it is
- * missing or was stored for other settings. */
-static FILE *open_keyed(const char *dir, const char *file, const char *key) {
-  char path[1200], line[2048];
-  snprintf(path, sizeof path, "%s/%s", dir, file);
-  FILE *f = fopen(path, "r");
-  if (f == NULL) return NULL;
-  bool ok = fgets(line, sizeof line, f) != NULL && strncmp(line, "key,", 4) == 0;
-  if (ok) {
-    line[strcspn(line, "\n")] = '\0';
-    ok = strcmp(line + 4, key) == 0;
-  }
-  if (!ok) {
-    fclose(f);
-    return NULL;
-  }
-  return f;
+/* A stored file read line by line, for messages that name the line. */
+typedef struct stored {
+  FILE *f;
+  char path[1200];
+  int line_no;
+  bool cut; /* the last line read ended without its newline */
+  char line[EXPERIMENT_KEY_SIZE + 8];
+  char *why;
+  size_t why_size;
+} stored_t;
+
+/* The next line without its newline; false at the end, or for a line that
+ * does not end in one (a file cut short, or longer than any we write). */
+static bool next_line(stored_t *s) {
+  ++s->line_no;
+  s->cut = false;
+  if (fgets(s->line, sizeof s->line, s->f) == NULL) return false;
+  size_t n = strlen(s->line);
+  s->cut = n == 0 || s->line[n - 1] != '\n';
+  if (s->cut) return false;
+  s->line[n - 1] = '\0';
+  return true;
 }
 
-bool experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell) {
-  char line[2048];
-  FILE *f = open_keyed(dir, "cell.csv", key);
-  if (f == NULL) return false;
-  bool ok = fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,max\n") == 0;
-  for (int p = 0; ok && p < 3; ++p) {
-    char name[16];
-    ok = fgets(line, sizeof line, f) != NULL &&
-         sscanf(line, "%15[a-z_],%lf,%lf", name, &cell->errors.mean[p], &cell->errors.max[p]) == 3 &&
-         strcmp(name, NAMES[p]) == 0;
+/* -1 after a message naming the file, the line and what it should hold. */
+static int damaged(stored_t *s, const char *expected) {
+  if (s->cut) {
+    snprintf(s->why, s->why_size, "%s: line %d is cut short (\"%.120s\"), where %s belongs; the file is damaged "
+             "(delete it to recompute)", s->path, s->line_no, s->line, expected);
+  } else if (feof(s->f) || ferror(s->f)) {
+    snprintf(s->why, s->why_size, "%s: ends after line %d, before %s; the file is damaged (delete it to recompute)",
+             s->path, s->line_no - 1, expected);
+  } else {
+    snprintf(s->why, s->why_size, "%s: line %d: \"%.120s\" is not %s; the file is damaged (delete it to recompute)",
+             s->path, s->line_no, s->line, expected);
   }
-  ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "seconds,%lf", &cell->seconds) == 1;
-  fclose(f);
-  return ok;
+  fclose(s->f);
+  return -1;
+}
+
+/* Opens <dir>/<file> and reads its first line "key,<key>": 1 if the key is
+ * this one, 0 (file closed) if the file is missing or holds another cell's
+ * settings, -1 with a message if it cannot be read. */
+static int open_keyed(stored_t *s, const char *dir, const char *file, const char *key, char *why,
+                      size_t why_size) {
+  s->why = why;
+  s->why_size = why_size;
+  s->line_no = 0;
+  snprintf(s->path, sizeof s->path, "%s/%s", dir, file);
+  s->f = fopen(s->path, "r");
+  if (s->f == NULL) {
+    if (errno == ENOENT) return 0;
+    snprintf(why, why_size, "%s: %s", s->path, strerror(errno));
+    return -1;
+  }
+  bool same = next_line(s) && strncmp(s->line, "key,", 4) == 0 && strcmp(s->line + 4, key) == 0;
+  if (!same) fclose(s->f);
+  return same ? 1 : 0;
+}
+
+/* A stored figure: a number, finite and >= 0, or NaN where allowed (a
+ * bound where the Fisher matrix was not positive definite). Advances *p. */
+static bool stored_number(const char **p, bool nan_allowed, double *out) {
+  char *end = NULL;
+  double v = strtod(*p, &end);
+  if (end == *p || !(isnan(v) ? nan_allowed : isfinite(v) && v >= 0.0)) return false;
+  *out = v;
+  *p = end;
+  return true;
+}
+
+/* "<name>,<n>,<n>...": count figures after the name, and nothing after them. */
+static bool stored_row(const char *line, const char *name, int count, bool nan_allowed, double *const out[]) {
+  size_t len = strlen(name);
+  if (strncmp(line, name, len) != 0) return false;
+  const char *at = line + len;
+  for (int i = 0; i < count; ++i) {
+    if (*at++ != ',' || !stored_number(&at, nan_allowed, out[i])) return false;
+  }
+  return *at == '\0';
+}
+
+int experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell, char *why, size_t why_size) {
+  stored_t s;
+  int found = open_keyed(&s, dir, "cell.csv", key, why, why_size);
+  if (found <= 0) return found;
+  if (!next_line(&s) || strcmp(s.line, "param,mean,max") != 0) return damaged(&s, "\"param,mean,max\"");
+  for (int p = 0; p < 3; ++p) {
+    double *const figures[2] = {&cell->errors.mean[p], &cell->errors.max[p]};
+    if (!next_line(&s) || !stored_row(s.line, NAMES[p], 2, false, figures)) {
+      return damaged(&s, p == 0 ? "\"sigma_a,<mean>,<max>\" (finite numbers >= 0)"
+                         : p == 1 ? "\"sigma_s,<mean>,<max>\" (finite numbers >= 0)"
+                                  : "\"g,<mean>,<max>\" (finite numbers >= 0)");
+    }
+  }
+  double *const seconds[1] = {&cell->seconds};
+  if (!next_line(&s) || !stored_row(s.line, "seconds", 1, false, seconds)) {
+    return damaged(&s, "\"seconds,<s>\" (a finite number >= 0)");
+  }
+  fclose(s.f);
+  return 1;
 }
 
 int experiment_cell_store(const char *dir, const char *key, const experiment_cell_t *cell) {
@@ -183,44 +253,47 @@ static void data_key(const recon_scene_t *sc, char *key, size_t key_size) {
 
 /* The bound is computed at the truth from the data alone, so runs of the
  * optimizer with other settings share it. */
-void experiment_bound_key(const recon_scene_t *sc, int64_t photons, int32_t replicates, char *key,
+bool experiment_bound_key(const recon_scene_t *sc, int64_t photons, int32_t replicates, char *key,
                           size_t key_size) {
-  char data[1024];
+  char data[EXPERIMENT_KEY_SIZE];
   data_key(sc, data, sizeof data);
-  snprintf(key, key_size, "%s bound_photons=%lld replicates=%d", data, (long long)photons, (int)replicates);
+  int n = snprintf(key, key_size, "%s bound_photons=%lld replicates=%d", data, (long long)photons, (int)replicates);
+  return strlen(data) + 1 < sizeof data && n >= 0 && (size_t)n + 1 < key_size;
 }
 
-/* A number as bound.csv writes it: NaN where the Fisher matrix was not
- * positive definite. */
-static bool parse_number(const char **p, double *out) {
-  char *end = NULL;
-  *out = strtod(*p, &end);
-  if (end == *p) return false;
-  *p = end;
-  return true;
-}
-
-bool experiment_bound_load(const char *dir, const char *key, experiment_bound_t *b) {
-  char line[2048];
-  FILE *f = open_keyed(dir, "bound.csv", key);
-  if (f == NULL) return false;
-  bool ok = fgets(line, sizeof line, f) != NULL && strcmp(line, "param,mean,median,max,lower_mean,local_mean,local_max\n") == 0;
-  for (int p = 0; ok && p < 3; ++p) {
-    size_t len = strlen(NAMES[p]);
-    ok = fgets(line, sizeof line, f) != NULL && strncmp(line, NAMES[p], len) == 0 && line[len] == ',';
-    const char *at = line + len;
-    double *field[6] = {&b->mean[p],       &b->median[p],     &b->max[p],
-                        &b->lower_mean[p], &b->local_mean[p], &b->local_max[p]};
-    for (int i = 0; ok && i < 6; ++i) ok = *at++ == ',' && parse_number(&at, field[i]);
+int experiment_bound_load(const char *dir, const char *key, experiment_bound_t *b, char *why, size_t why_size) {
+  stored_t s;
+  int found = open_keyed(&s, dir, "bound.csv", key, why, why_size);
+  if (found <= 0) return found;
+  if (!next_line(&s) || strcmp(s.line, "param,mean,median,max,lower_mean,local_mean,local_max") != 0) {
+    return damaged(&s, "\"param,mean,median,max,lower_mean,local_mean,local_max\"");
   }
-  int pd = 0, radius = -1;
-  ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "positive_definite,%d", &pd) == 1;
-  ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "local_radius,%d", &radius) == 1;
-  b->positive_definite = pd;
-  b->local_radius = radius;
-  ok = ok && fgets(line, sizeof line, f) != NULL && sscanf(line, "seconds,%lf", &b->seconds) == 1;
-  fclose(f);
-  return ok;
+  for (int p = 0; p < 3; ++p) {
+    double *const figures[6] = {&b->mean[p],       &b->median[p],     &b->max[p],
+                                &b->lower_mean[p], &b->local_mean[p], &b->local_max[p]};
+    if (!next_line(&s) || !stored_row(s.line, NAMES[p], 6, true, figures)) {
+      return damaged(&s, "a parameter's name and six figures (numbers >= 0 or nan)");
+    }
+  }
+  double pd = 0.0, radius = 0.0;
+  double *const pd_field[1] = {&pd}, *const seconds[1] = {&b->seconds};
+  if (!next_line(&s) || !stored_row(s.line, "positive_definite", 1, false, pd_field) || (pd != 0.0 && pd != 1.0)) {
+    return damaged(&s, "\"positive_definite,<0 or 1>\"");
+  }
+  /* -1 where no local bound stands in (stored_number refuses signs). */
+  bool read = next_line(&s), none = read && strcmp(s.line, "local_radius,-1") == 0;
+  double *const radius_field[1] = {&radius};
+  if (!read || (!none && (!stored_row(s.line, "local_radius", 1, false, radius_field) ||
+                          radius >= RECON_LOCAL_RADII || radius != floor(radius)))) {
+    return damaged(&s, "\"local_radius,<-1 to 3>\"");
+  }
+  if (!next_line(&s) || !stored_row(s.line, "seconds", 1, false, seconds)) {
+    return damaged(&s, "\"seconds,<s>\" (a finite number >= 0)");
+  }
+  b->positive_definite = (int32_t)pd;
+  b->local_radius = none ? -1 : (int32_t)radius;
+  fclose(s.f);
+  return 1;
 }
 
 int experiment_bound_store(const char *dir, const char *key, const experiment_bound_t *b) {
@@ -267,12 +340,18 @@ static int copy_into(const char *dir, const char *from, const char *name) {
   return recon_text_commit(out, tmp, dst);
 }
 
-int experiment_bound_adopt(const char *dir, const char *from, const char *key, experiment_bound_t *b) {
-  if (!experiment_bound_load(from, key, b)) return 0;
-  static const char *const MAPS[] = {"bound.exr", "bound_sigma_a.png", "bound_sigma_s.png", "bound_g.png"};
+int experiment_bound_adopt(const char *dir, const char *from, const char *key, experiment_bound_t *b, char *why,
+                           size_t why_size) {
+  int found = experiment_bound_load(from, key, b, why, why_size);
+  if (found <= 0) return found;
+  static const char *const MAPS[] = {"bound.exr", "bound_sigma_a.png", "bound_sigma_s.png", "bound_g.png", "bound.csv"};
   for (size_t i = 0; i < sizeof MAPS / sizeof MAPS[0]; ++i) {
-    if (copy_into(dir, from, MAPS[i]) != 0) return -1;
+    /* bound.csv last: once it is there, the maps it describes are too. */
+    int copied = i + 1 < sizeof MAPS / sizeof MAPS[0] ? copy_into(dir, from, MAPS[i]) : experiment_bound_store(dir, key, b);
+    if (copied != 0) {
+      snprintf(why, why_size, "%s/%s: copying it into %s: %s", from, MAPS[i], dir, strerror(errno));
+      return -1;
+    }
   }
-  /* bound.csv last: once it is there, the maps it describes are too. */
-  return experiment_bound_store(dir, key, b) == 0 ? 1 : -1;
+  return 1;
 }

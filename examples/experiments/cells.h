@@ -14,12 +14,21 @@ typedef struct experiment_cell {
   double seconds;   /* of the run that computed it */
 } experiment_cell_t;
 
-/* The text that identifies what a cell computed: every scene field the
- * result depends on. A stored cell counts only if its key is equal. */
-void experiment_cell_key(const recon_scene_t *scene, char *key, size_t key_size);
+/* Room for a key: the longest, every option away from its default, is
+ * about 2 kB. */
+#define EXPERIMENT_KEY_SIZE 4096
 
-/* Reads <dir>/cell.csv. True if it exists, parses and has this key. */
-bool experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell);
+/* The text that identifies what a cell computed: every scene field the
+ * result depends on. A stored cell counts only if its key is equal. False
+ * if the key did not fit key_size (it is never compared cut short). */
+bool experiment_cell_key(const recon_scene_t *scene, char *key, size_t key_size);
+
+/* Reads <dir>/cell.csv: 1 if it holds a cell under this key, 0 if it is
+ * missing or holds another key's, -1 with a message naming the file and
+ * line in why if it holds this key but cannot be read whole (damaged:
+ * a figure that is not a finite number >= 0, text after it, a line cut
+ * short), which a run reports instead of silently recomputing. */
+int experiment_cell_load(const char *dir, const char *key, experiment_cell_t *cell, char *why, size_t why_size);
 
 /* Writes <dir>/cell.csv whole or not at all; -1 with errno on failure. */
 int experiment_cell_store(const char *dir, const char *key, const experiment_cell_t *cell);
@@ -38,19 +47,22 @@ typedef struct experiment_bound {
 } experiment_bound_t;
 
 /* The data's key (the cell's without the optimizer's settings) and the
- * bound's photons per emitter and replicates. */
-void experiment_bound_key(const recon_scene_t *scene, int64_t photons, int32_t replicates, char *key,
+ * bound's photons per emitter and replicates; false if it did not fit. */
+bool experiment_bound_key(const recon_scene_t *scene, int64_t photons, int32_t replicates, char *key,
                           size_t key_size);
 
-/* <dir>/bound.csv, as experiment_cell_load and experiment_cell_store. */
-bool experiment_bound_load(const char *dir, const char *key, experiment_bound_t *bound);
+/* <dir>/bound.csv, as experiment_cell_load (figures may be NaN) and
+ * experiment_cell_store. */
+int experiment_bound_load(const char *dir, const char *key, experiment_bound_t *bound, char *why, size_t why_size);
 int experiment_bound_store(const char *dir, const char *key, const experiment_bound_t *bound);
 
 /* A bound stored for the same data in another folder `from` (a cell
  * folder of another run): loaded, and its bound.csv, bound.exr and
  * bound_*.png copied into `dir` (each written whole, then renamed), so
- * the cell reads it back from then on. False if `from` holds no bound
- * under this key; -1 with errno on a failed copy. */
-int experiment_bound_adopt(const char *dir, const char *from, const char *key, experiment_bound_t *bound);
+ * the cell reads it back from then on: 1. 0 if `from` holds no bound
+ * under this key; -1 with a message in why if its bound is damaged or a
+ * copy failed. */
+int experiment_bound_adopt(const char *dir, const char *from, const char *key, experiment_bound_t *bound, char *why,
+                           size_t why_size);
 
 #endif

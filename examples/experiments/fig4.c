@@ -362,7 +362,7 @@ static void make_scene(recon_scene_t *sc, const fig4_options_t *o, int c, int v)
     sc->levels[0] = sc->levels[sc->level_count - 1];
     sc->level_count = 1;
   }
-  snprintf(sc->output, sizeof sc->output, "%s/config%d_volume%d", out, c, v + 1);
+  (void)recon_scene_set_output(sc, "%s/config%d_volume%d", out, c, v + 1); /* fits: FIG4_CELL_FOLDER_MAX */
   fig4_options_apply(o, sc);
 }
 
@@ -542,21 +542,24 @@ static int bound_cell(const recon_scene_t *sc, int64_t threads, int64_t photons,
  * it with these settings, else computed (bound_cell) and stored. */
 static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photons, int32_t replicates, bool quiet,
                         const char *bound_from, experiment_bound_t *b) {
-  char key[1200];
-  experiment_bound_key(sc, photons, replicates, key, sizeof key);
-  bool stored = experiment_bound_load(sc->output, key, b);
-  if (!stored && bound_from != NULL) {
+  char key[EXPERIMENT_KEY_SIZE], why[1600];
+  if (!experiment_bound_key(sc, photons, replicates, key, sizeof key)) {
+    fprintf(stderr, "hetinv-fig4: %s: the bound's key is longer than %d bytes\n", sc->output, EXPERIMENT_KEY_SIZE - 1);
+    return 1;
+  }
+  int found = experiment_bound_load(sc->output, key, b, why, sizeof why);
+  if (found == 0 && bound_from != NULL) {
     /* The same cell's folder in the other run: config<c>_volume<v>. */
     const char *cell = strrchr(sc->output, '/');
     char from[1200];
     snprintf(from, sizeof from, "%s/%s", bound_from, cell ? cell + 1 : sc->output);
-    int adopted = experiment_bound_adopt(sc->output, from, key, b);
-    if (adopted < 0) {
-      fprintf(stderr, "hetinv-fig4: %s: copying its bound into %s: %s\n", from, sc->output, strerror(errno));
-      return 1;
-    }
-    stored = adopted == 1;
+    found = experiment_bound_adopt(sc->output, from, key, b, why, sizeof why);
   }
+  if (found < 0) {
+    fprintf(stderr, "hetinv-fig4: %s\n", why);
+    return 1;
+  }
+  bool stored = found == 1;
   if (stored) {
     if (!quiet) {
       bool local = !b->positive_definite && b->local_radius >= 0;
@@ -626,10 +629,18 @@ int main(int argc, char **argv) {
         bound_pd[c] += b.positive_definite;
         if (o.bound_only) continue;
       }
-      char key[1024];
-      experiment_cell_key(&sc, key, sizeof key);
+      char key[EXPERIMENT_KEY_SIZE], why[1600];
+      if (!experiment_cell_key(&sc, key, sizeof key)) {
+        fprintf(stderr, "hetinv-fig4: %s: the cell's key is longer than %d bytes\n", sc.output, EXPERIMENT_KEY_SIZE - 1);
+        return 1;
+      }
       experiment_cell_t cell;
-      bool reused = experiment_cell_load(sc.output, key, &cell);
+      int found = experiment_cell_load(sc.output, key, &cell, why, sizeof why);
+      if (found < 0) {
+        fprintf(stderr, "hetinv-fig4: %s\n", why);
+        return 1;
+      }
+      bool reused = found == 1;
       if (!reused && run_cell(&sc, o.threads, o.quiet, &cell) != 0) return 1;
       if (!reused && experiment_cell_store(sc.output, key, &cell) != 0) {
         fprintf(stderr, "hetinv-fig4: %s/cell.csv: %s\n", sc.output, strerror(errno));

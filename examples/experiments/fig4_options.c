@@ -1,9 +1,11 @@
 /* hetinv-fig4's command line (fig4_options.h). */
 #include "fig4_options.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "hetinv/bound.h"
 #include "polish.h"
@@ -120,6 +122,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       o->bound = true;
     } else if (strcmp(a, "--bound-from") == 0) {
       if (next == NULL) return usage("--bound-from needs the output folder of another run");
+      if (recon_parse_folder("hetinv-fig4", a, next, FIG4_CELL_FOLDER_MAX) < 0) return 2;
       o->bound_from = next;
       ++i;
     } else if (strcmp(a, "--bound-only") == 0) {
@@ -132,6 +135,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       ++i;
     } else if (strcmp(a, "-o") == 0) {
       if (next == NULL) return usage("-o needs a directory");
+      if (recon_parse_folder("hetinv-fig4", a, next, FIG4_CELL_FOLDER_MAX) < 0) return 2;
       o->out = argv[++i];
     } else if (strcmp(a, "--volumes") == 0) {
       /* N (volumes 1..N) or A-B: separate ranges run side by side in
@@ -260,6 +264,11 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
           return usage(msg);
         }
       }
+      if (!o->configs[1] && !o->configs[2] && !o->configs[3] && !o->configs[4]) {
+        char msg[200];
+        snprintf(msg, sizeof msg, "--configs: '%s' names no configuration", argv[i]);
+        return usage(msg);
+      }
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
       usage("the paper's Fig. 4: imaging configurations compared on random volumes");
       return 1;
@@ -270,6 +279,17 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
     }
   }
   if (o->bound && o->bound_only) return usage("--bound and --bound-only exclude each other");
+  if (o->bound_from != NULL) {
+    /* A mistyped folder would silently cost the whole bound's computation. */
+    struct stat st;
+    int r = stat(o->bound_from, &st);
+    if (r != 0 || !S_ISDIR(st.st_mode)) {
+      char msg[1400];
+      snprintf(msg, sizeof msg, "--bound-from: '%s' is not a folder (%s)", o->bound_from,
+               r != 0 ? strerror(errno) : "a file");
+      return usage(msg);
+    }
+  }
   if (o->write_scenes && (o->bound || o->bound_only)) return usage("--write-scenes writes set-ups; it computes no bound");
   if (o->fit && (o->write_scenes || o->bound_only)) return usage("--fit-check needs the cells' recoveries");
   if (o->gradient_replicates > 0 && (o->write_scenes || o->bound_only)) {

@@ -8,6 +8,10 @@
 
 #include "recon.h"
 
+/* Room a cell's folder name takes after -o's (and --bound-from's) path:
+ * "/config4_volume100" and spare. */
+#define FIG4_CELL_FOLDER_MAX 32
+
 /* -1 (or NULL) where the option was not given: the scene's default. */
 typedef struct fig4_options {
   bool full, quiet, write_scenes, configs[5]; /* configs[1..4] */

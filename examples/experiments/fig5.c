@@ -528,6 +528,7 @@ int main(int argc, char **argv) {
       if (recon_parse_count(PROG, a, v, 1, 16, &bound_spacing) < 0) return 2;
     } else if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
       if (v == NULL) return usage("-o needs a directory");
+      if (recon_parse_folder(PROG, a, v, 0) < 0) return 2;
       out_dir = argv[++i];
     } else if (strcmp(a, "--grid") == 0) {
       ++i;
@@ -587,7 +588,7 @@ int main(int argc, char **argv) {
   if (write_scene && (bound || bound_only)) return usage("--write-scene computes no bound");
   recon_scene_t sc;
   fig5_scene(&sc, grid > 0 ? (int32_t)grid : full ? FULL_GRID : REDUCED_GRID, full, cameras);
-  if (out_dir) snprintf(sc.output, sizeof sc.output, "%s", out_dir);
+  if (out_dir) (void)recon_scene_set_output(&sc, "%s", out_dir); /* fits: recon_parse_folder */
   if (iterations > 0) sc.iterations = iterations;
   if (photons > 0) sc.photons = photons;
   if (threads >= 0) sc.threads = (int32_t)threads;

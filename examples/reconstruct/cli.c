@@ -47,6 +47,20 @@ int recon_parse_choice(const char *prog, const char *opt, const char *text, cons
   return -1;
 }
 
+int recon_parse_folder(const char *prog, const char *opt, const char *text, size_t reserve) {
+  const size_t room = sizeof ((recon_scene_t *)NULL)->output - 1;
+  if (text == NULL || *text == '\0') {
+    fprintf(stderr, "%s: %s needs a folder\n", prog, opt);
+    return -1;
+  }
+  if (strlen(text) + reserve > room) {
+    fprintf(stderr, "%s: %s: the path is %zu bytes long; at most %zu here\n", prog, opt, strlen(text),
+            room - reserve);
+    return -1;
+  }
+  return 0;
+}
+
 double recon_now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);

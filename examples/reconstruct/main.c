@@ -103,6 +103,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
     const char *a = argv[i];
     if (strcmp(a, "-o") == 0 || strcmp(a, "--output") == 0) {
       if (++i == argc) return usage("-o needs a directory");
+      if (recon_parse_folder("hetinv-reconstruct", a, argv[i], 0) < 0) return 2;
       out_dir = argv[i];
     } else if (strcmp(a, "--resume") == 0) {
       resume = true;
@@ -186,7 +187,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
   }
   const bool no_std_errors = files && sc.std_errors[0] == '\0';
   if (no_std_errors) no_bound = true;
-  if (out_dir) snprintf(sc.output, sizeof sc.output, "%s", out_dir);
+  if (out_dir) (void)recon_scene_set_output(&sc, "%s", out_dir); /* fits: recon_parse_folder */
   if (threads >= 0) sc.threads = (int32_t)threads;
   if (iterations > 0) sc.iterations = iterations;
   if (photons > 0) sc.photons = photons;

@@ -184,6 +184,13 @@ typedef struct recon_scene {
 
 /* The built-in reduced Fig. 4 scene. */
 void recon_scene_default(recon_scene_t *scene);
+/* Sets scene->output from printf-style arguments. Returns -1, leaving it
+ * unchanged, when the path does not fit: output paths are never cut short
+ * (a shortened folder would receive another folder's files). */
+#if defined(__GNUC__)
+__attribute__((format(printf, 2, 3)))
+#endif
+int recon_scene_set_output(recon_scene_t *scene, const char *fmt, ...);
 /* Reads a JSON scene over the defaults; on failure writes a message naming
  * the field to msg and returns -1. */
 int recon_scene_read(const char *path, recon_scene_t *scene, char *msg, size_t msg_size);
@@ -375,6 +382,10 @@ int recon_parse_real(const char *prog, const char *opt, const char *text, double
 /* The same for one of the NULL-terminated names (*out: its index). */
 int recon_parse_choice(const char *prog, const char *opt, const char *text, const char *const names[],
                        int *out);
+/* A folder option (-o DIR): refused, after a message naming the option and
+ * the path's length, when the path and the `reserve` bytes the program
+ * appends to it (its sub-folders) would not fit a scene's output. */
+int recon_parse_folder(const char *prog, const char *opt, const char *text, size_t reserve);
 double recon_now(void);
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
 

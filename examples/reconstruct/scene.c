@@ -1,6 +1,7 @@
 /* Reconstruction scenes: the built-in reduced Fig. 4 scene, the JSON
  * format over it (docs/reconstruct-format.md), and the media they make. */
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,6 +18,17 @@ const char *const recon_clip_errors_names[] = {"data", "residual", "residual_abo
 const char *const recon_snr_errors_names[] = {"data", "residual", NULL};
 const char *const recon_method_names[] = {"adadelta", "sgd", "adagrad", "adam", NULL};
 const char *const recon_coordinate_names[] = {"native", "reduced", "log", "log-reduced", "log-mean-ratio", NULL};
+
+int recon_scene_set_output(recon_scene_t *sc, const char *fmt, ...) {
+  char path[sizeof sc->output];
+  va_list ap;
+  va_start(ap, fmt);
+  int n = vsnprintf(path, sizeof path, fmt, ap);
+  va_end(ap);
+  if (n < 0 || (size_t)n >= sizeof path) return -1;
+  memcpy(sc->output, path, (size_t)n + 1);
+  return 0;
+}
 
 void recon_scene_default(recon_scene_t *sc) {
   memset(sc, 0, sizeof *sc);
@@ -518,7 +530,9 @@ static int parse_root(jr_t *jrp, cJSON *root, recon_scene_t *sc, char *msg, size
   if (rc == 0 && s) snprintf(sc->name, sizeof sc->name, "%s", s);
   s = NULL;
   if (rc == 0 && jr_string(&jr, root, "", "output", JR_OPTIONAL, &s) < 0) rc = -1;
-  if (rc == 0 && s) snprintf(sc->output, sizeof sc->output, "%s", s);
+  if (rc == 0 && s && recon_scene_set_output(sc, "%s", s) < 0) {
+    rc = jr_fail(&jr, "output", "the path is %zu bytes long; at most %zu", strlen(s), sizeof sc->output - 1);
+  }
   int64_t v = (int64_t)sc->seed;
   if (rc == 0 && jr_integer(&jr, root, "", "seed", JR_OPTIONAL, 0, INT64_MAX, &v) < 0) rc = -1;
   sc->seed = (uint64_t)v;
