@@ -81,6 +81,10 @@ int main(int argc, char **argv) {
   int first = CASE_A1, last = CASE_A1_HET;
   for (int i = 1; i < argc; i += 2) { /* every option takes a value */
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+    if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+      printf("usage: hetinv-bench-gradient [--photons N] [--repeat R] [--threads 1|2] [--case a1|a1-eta|a1-het]\n");
+      return 0;
+    }
     bool bad = v == NULL;
     if (!bad && strcmp(a, "--photons") == 0) {
       bad = !parse_number(v, 1, 281474976710655.0, &photons);
@@ -96,8 +100,10 @@ int main(int argc, char **argv) {
     }
     if (bad) {
       fprintf(stderr,
+              "hetinv-bench-gradient: %s%s%s%s\n"
               "usage: hetinv-bench-gradient [--photons N] [--repeat R] [--threads 1|2] "
-              "[--case a1|a1-eta|a1-het]\n");
+              "[--case a1|a1-eta|a1-het]\n",
+              a, v ? ": '" : " needs a value", v ? v : "", v ? "' is not accepted" : "");
       return 2;
     }
   }

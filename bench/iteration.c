@@ -28,6 +28,7 @@
  * photons, the cost per iteration should not grow with the grid).
  * Output: one line per figure, "iteration name=value ...". Medians of R
  * rounds (default 5), the parts timed in turn in each round. */
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -53,14 +54,16 @@ static double median(double *v, int n) {
 }
 
 static int fail(hetinv_context_t *ctx, const char *what) {
-  fprintf(stderr, "hetinv-bench-iteration: %s: %s\n", what, ctx ? hetinv_context_last_error_message(ctx) : "");
+  /* NULL: the thread's last failure, which names the value (hetinv_context_create's). */
+  fprintf(stderr, "hetinv-bench-iteration: %s: %s\n", what, hetinv_context_last_error_message(ctx));
   return 1;
 }
 
 static int parse(const char *opt, const char *v, long lo, long hi, long *out) {
   char *end = NULL;
+  errno = 0;
   long x = v ? strtol(v, &end, 10) : 0;
-  if (v == NULL || *end != '\0' || x < lo || x > hi) {
+  if (v == NULL || *v == '\0' || *end != '\0' || errno != 0 || x < lo || x > hi) {
     fprintf(stderr, "hetinv-bench-iteration: %s: '%s' is not an integer from %ld to %ld\n", opt, v ? v : "", lo, hi);
     return -1;
   }
@@ -72,19 +75,25 @@ enum { RENDER, GRADIENT, LOSS, ITERATION, PARTS };
 
 int main(int argc, char **argv) {
   long threads = 0, photons = -1, iterations = 20, repeat = 5, grid = 6;
+  static const char usage[] =
+      "usage: hetinv-bench-iteration [--threads N] [--photons N] [--iterations N] [--repeat R] [--grid N]\n";
   for (int i = 1; i < argc; i += 2) { /* every option takes a value */
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+    if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+      fputs(usage, stdout);
+      return 0;
+    }
     long *dst = strcmp(a, "--threads") == 0 ? &threads : strcmp(a, "--photons") == 0 ? &photons
               : strcmp(a, "--iterations") == 0 ? &iterations : strcmp(a, "--repeat") == 0 ? &repeat
               : strcmp(a, "--grid") == 0 ? &grid : NULL;
-    long lo = dst == &threads ? 0 : dst == &grid ? 2 : 1, hi = dst == &grid ? 64 : 100000000;
+    long lo = dst == &threads ? 0 : dst == &grid ? 2 : 1;
+    long hi = dst == &threads ? HETINV_MAX_THREADS : dst == &grid ? 64 : dst == &repeat ? 64 : 100000000;
     if (dst == NULL) {
-      fprintf(stderr, "usage: hetinv-bench-iteration [--threads N] [--photons N] [--iterations N] [--repeat R] [--grid N]\n");
+      fprintf(stderr, "hetinv-bench-iteration: unknown option '%s'\n%s", a, usage);
       return 2;
     }
     if (parse(a, v, lo, hi, dst) < 0) return 2;
   }
-  if (repeat > 64) repeat = 64;
   recon_scene_t sc;
   recon_scene_default(&sc);
   sc.grid[0] = sc.grid[2] = (int32_t)grid;

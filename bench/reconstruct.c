@@ -230,7 +230,7 @@ int main(int argc, char **argv) {
       if (recon_parse_count(PROG, a, v, 1, INT64_C(1) << 40, &truth_photons) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--threads") == 0 && v) {
-      if (recon_parse_count(PROG, a, v, 0, 4096, &threads) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 0, HETINV_MAX_THREADS, &threads) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--seeds") == 0 && v) {
       if (parse_seeds(v, &seed_first, &seed_last) < 0) return 2;

@@ -250,7 +250,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1e6, &o->min_snr) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--threads") == 0) {
-      if (recon_parse_count("hetinv-fig4", a, next, 0, 4096, &o->threads) < 0) return 2;
+      if (recon_parse_count("hetinv-fig4", a, next, 0, HETINV_MAX_THREADS, &o->threads) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--configs") == 0) {
       if (next == NULL) return usage("--configs needs a list such as 1,2,4");

@@ -541,7 +541,7 @@ int main(int argc, char **argv) {
       if (recon_parse_count(PROG, a, v, 1, INT64_C(1) << 40, &photons) < 0) return 2;
     } else if (strcmp(a, "--threads") == 0) {
       ++i;
-      if (recon_parse_count(PROG, a, v, 0, 4096, &threads) < 0) return 2;
+      if (recon_parse_count(PROG, a, v, 0, HETINV_MAX_THREADS, &threads) < 0) return 2;
     } else if (strcmp(a, "--min-snr") == 0) {
       ++i;
       if (recon_parse_real(PROG, a, v, 0.0, 1e6, &min_snr) < 0) return 2;

@@ -68,6 +68,8 @@ double recon_now(void) {
 }
 
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what) {
-  fprintf(stderr, "%s: %s: %s\n", prog, what, ctx ? hetinv_context_last_error_message(ctx) : "failed");
+  /* With ctx NULL (a failed hetinv_context_create) the thread's last message. */
+  const char *message = hetinv_context_last_error_message(ctx);
+  fprintf(stderr, "%s: %s: %s\n", prog, what, message[0] != '\0' ? message : "failed");
   return 1;
 }
