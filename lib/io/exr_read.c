@@ -108,7 +108,9 @@ static int64_t size_source(exr_const_context_t exr, void *user) {
 
 /* Opens the file and parses its header. */
 static hetinv_result_t open_file(exr_reader_t *rd) {
-  rd->fd = open(rd->path, O_RDONLY | O_CLOEXEC);
+  /* O_NONBLOCK: the open of a FIFO does not wait for a writer (refused
+   * below); reads of a regular file are unchanged by it. */
+  rd->fd = open(rd->path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (rd->fd < 0) {
     return HV_FAIL(rd->ctx, HETINV_ERROR_IO, "cannot open '%s': %s", rd->path, strerror(errno));
   }

@@ -1,5 +1,6 @@
 /* Mitsuba binary grid volumes (.vol): parsing, reading and writing. */
 #include <errno.h>
+#include <fcntl.h>
 #include <float.h>
 #include <inttypes.h>
 #include <math.h>
@@ -7,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "core/alloc.h"
 #include "core/error.h"
@@ -257,9 +259,22 @@ hetinv_result_t hv_vol_read_file(const hetinv_context_t *ctx, const char *path,
   char source[1024];
   snprintf(source, sizeof source, "'%s'", path);
   memset(header, 0, sizeof *header);
-  FILE *fp = fopen(path, "rb");
+  /* O_NONBLOCK: the open of a FIFO does not wait for a writer (refused
+   * below); reads of a regular file are unchanged by it. */
+  int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot open %s: %s", source, strerror(errno));
+  struct stat st;
+  const char *why = fstat(fd, &st) != 0 ? strerror(errno) : S_ISREG(st.st_mode) ? NULL : "it is not a regular file";
+  if (why != NULL) {
+    hetinv_result_t failed = HV_FAIL(ctx, HETINV_ERROR_IO, "cannot read %s: %s", source, why);
+    close(fd);
+    return failed;
+  }
+  FILE *fp = fdopen(fd, "rb");
   if (fp == NULL) {
-    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot open %s: %s", source, strerror(errno));
+    int err = errno;
+    close(fd);
+    return HV_FAIL(ctx, HETINV_ERROR_IO, "cannot open %s: %s", source, strerror(err));
   }
   hetinv_vol_header_t h;
   hetinv_result_t r = read_open_file(ctx, source, fp, &h, data, capacity);

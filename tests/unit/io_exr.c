@@ -3,6 +3,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <openexr.h>
 #include <zlib.h>
@@ -508,6 +509,16 @@ static void missing_file_is_an_io_error(void **state) {
   assert_message_contains("is not a regular file");
 }
 
+/* A FIFO with no writer: refused at once, not waited on. alarm() turns a
+ * hang into a failure. */
+static void fifo_is_refused_without_waiting(void **state) {
+  assert_int_equal(mkfifo(ht_path("fifo.exr"), 0644), 0);
+  alarm(20);
+  assert_read_fails(*state, HETINV_ERROR_IO, ht_path("fifo.exr"));
+  alarm(0);
+  assert_message_contains("is not a regular file");
+}
+
 static void empty_file_is_corrupt(void **state) {
   ht_write_file(ht_path("empty.exr"), "", 0);
   assert_read_fails(*state, HETINV_ERROR_CORRUPT_FILE, ht_path("empty.exr"));
@@ -770,6 +781,7 @@ int main(void) {
       EXR_TEST(deep_file_is_unsupported),
       EXR_TEST(subsampled_channel_is_unsupported),
       EXR_TEST(missing_file_is_an_io_error),
+      EXR_TEST(fifo_is_refused_without_waiting),
       EXR_TEST(empty_file_is_corrupt),
       EXR_TEST(garbage_is_corrupt),
       EXR_TEST(wrong_magic_is_corrupt),

@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "test_support.h"
 
@@ -190,6 +191,16 @@ static void directory_is_an_io_error(void **state) {
   const char *path = ht_path("dir.vol");
   assert_int_equal(mkdir(path, 0755), 0);
   expect_read_failure(*state, path, HETINV_ERROR_IO, "is not a regular file", 0);
+}
+
+/* A FIFO with no writer: refused at once, not waited on (its open used to
+ * block until a writer came). alarm() turns a hang into a failure. */
+static void fifo_is_refused_without_waiting(void **state) {
+  const char *path = ht_path("fifo.vol");
+  assert_int_equal(mkfifo(path, 0644), 0);
+  alarm(20);
+  expect_read_failure(*state, path, HETINV_ERROR_IO, "is not a regular file", 0);
+  alarm(0);
 }
 
 static void empty_file_is_corrupt(void **state) {
@@ -609,6 +620,7 @@ int main(void) {
       VOL_TEST(degenerate_box_is_accepted_by_the_reader),
       VOL_TEST(missing_file_is_an_io_error),
       VOL_TEST(directory_is_an_io_error),
+      VOL_TEST(fifo_is_refused_without_waiting),
       VOL_TEST(empty_file_is_corrupt),
       VOL_TEST(truncated_header_is_corrupt),
       VOL_TEST(truncated_data_is_corrupt),
