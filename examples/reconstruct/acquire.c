@@ -249,11 +249,20 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
   double *cs = calloc(2 * n, sizeof *cs); /* below, then above */
   uint8_t *mask = calloc(n, 1);
   r = v && se && wt && cs && mask ? HETINV_SUCCESS : HETINV_ERROR_OUT_OF_MEMORY;
+  bool mask_refused = false;
   for (size_t i = 0; r == HETINV_SUCCESS && i < n; ++i) {
     v[i] = (double)hetinv_image_channel_data(img, ch[0])[i];
     se[i] = (double)hetinv_image_channel_data(img, ch[1])[i];
     wt[i] = (double)hetinv_image_channel_data(img, ch[2])[i];
-    mask[i] = hetinv_image_channel_data(img, ch[3])[i] != 0.0f;
+    float keep = hetinv_image_channel_data(img, ch[3])[i];
+    if (keep != 0.0f && keep != 1.0f) { /* NaN too: was read as 1 */
+      snprintf(msg, msg_size, "%s: mask[%zu] is %g; it must be 0 (left out of the loss) or 1 (kept)", path, i,
+               (double)keep);
+      r = HETINV_ERROR_INVALID_ARGUMENT;
+      mask_refused = true;
+      break;
+    }
+    mask[i] = keep == 1.0f;
     for (int c = 0; c < 2; ++c) {
       cs[c * n + i] = scale_ch[c] >= 0 ? (double)hetinv_image_channel_data(img, scale_ch[c])[i] : 1.0;
     }
@@ -262,7 +271,7 @@ hetinv_result_t recon_measurements_read(hetinv_context_t *ctx, recon_imaging_t *
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_weights(im->set, wt, n);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_clip_scales(im->set, cs, cs + n, n);
   if (r == HETINV_SUCCESS) r = hetinv_measurements_set_mask(im->set, mask, n);
-  if (r != HETINV_SUCCESS) snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
+  if (r != HETINV_SUCCESS && !mask_refused) snprintf(msg, msg_size, "%s: %s", path, hetinv_context_last_error_message(ctx));
   free(v);
   free(se);
   free(wt);
