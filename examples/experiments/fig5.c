@@ -434,8 +434,19 @@ static int verdict_of(hetinv_context_t *ctx, const hetinv_medium_t *truth, const
   return 0;
 }
 
+/* The first voxel of a recovered parameter outside what a medium holds
+ * (σa, σs finite and >= 0; g finite in (-1, 1)), or -1. */
+static int64_t first_impossible(hetinv_param_t p, const float *x, size_t count) {
+  for (size_t k = 0; k < count; ++k) {
+    bool ok = p == HETINV_PARAM_G ? x[k] > -1.0f && x[k] < 1.0f : isfinite(x[k]) && x[k] >= 0.0f;
+    if (!ok) return (int64_t)k;
+  }
+  return -1;
+}
+
 /* Before the bound's minutes: every rec_dirs/recovered_<param>.vol is a
- * 1-channel volume of the scene's grid. 0, or 1 after a message. */
+ * 1-channel volume of the scene's grid whose values a medium can hold.
+ * 0, or 1 after a message. */
 static int check_recovered(hetinv_context_t *ctx, const int32_t grid[3], const char *const *rec_dirs,
                            int rec_count) {
   char path[1200];
@@ -449,6 +460,22 @@ static int check_recovered(hetinv_context_t *ctx, const int32_t grid[3], const c
                 (int)h.dims[1], (int)h.dims[2], (int)grid[0], (int)grid[1], (int)grid[2]);
         return 1;
       }
+      char msg[1400];
+      int32_t d[3];
+      float *x = experiment_vol_load(ctx, path, d, msg, sizeof msg);
+      if (x == NULL) {
+        fprintf(stderr, PROG ": %s\n", msg);
+        return 1;
+      }
+      int64_t k = first_impossible((hetinv_param_t)p, x, (size_t)d[0] * (size_t)d[1] * (size_t)d[2]);
+      if (k >= 0) { /* x fastest, then y, then z (Mitsuba's order) */
+        fprintf(stderr, PROG ": %s: voxel (%d, %d, %d) is %g; %s\n", path, (int)(k % d[0]),
+                (int)(k / d[0] % d[1]), (int)(k / ((int64_t)d[0] * d[1])), (double)x[k],
+                p == HETINV_PARAM_G ? "g must be > -1 and < 1" : "it must be finite and >= 0");
+        free(x);
+        return 1;
+      }
+      free(x);
     }
   }
   return 0;
