@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -123,9 +124,13 @@ static int fisher_load(const recon_scene_t *sc, const char *header, double *f, s
   snprintf(path, sizeof path, "%s/polish_fisher.bin", sc->output);
   FILE *in = fopen(path, "rb");
   if (in == NULL) return -1;
-  int ok = fgets(line, sizeof line, in) != NULL && strcmp(line, header) == 0 &&
-           fread(f, sizeof *f, k * k, in) == k * k && fgetc(in) == EOF;
+  bool same = fgets(line, sizeof line, in) != NULL && strcmp(line, header) == 0; /* else another recovery's */
+  bool ok = same && fread(f, sizeof *f, k * k, in) == k * k && fgetc(in) == EOF;
   fclose(in);
+  /* Every entry of an estimated Fisher matrix is finite, its diagonal >= 0:
+   * a cache that is not is damaged, and recomputed rather than trusted. */
+  for (size_t i = 0; ok && i < k * k; ++i) ok = isfinite(f[i]) && (i % (k + 1) != 0 || f[i] >= 0.0);
+  if (same && !ok) fprintf(stderr, "%s: damaged; computing the matrix again\n", path);
   return ok ? 0 : -1;
 }
 
