@@ -155,7 +155,7 @@ int experiment_verdict_add(const char *dir, bool local, experiment_verdict_t *v,
   char path[1200];
   snprintf(path, sizeof path, "%s/bound.exr", dir);
   if (hetinv_context_create(NULL, &ctx) != HETINV_SUCCESS) {
-    snprintf(msg, msg_size, "cannot create a context");
+    snprintf(msg, msg_size, "cannot create a context: %s", hetinv_context_last_error_message(NULL));
     return -1;
   }
   int status = 0;

@@ -10,7 +10,7 @@ int stored_cell_open(const recon_scene_t *sc, int64_t threads, stored_cell_t *ce
   init.seed = sc->seed;
   init.thread_count = threads >= 0 ? (int32_t)threads : sc->threads;
   if (hetinv_context_create(&init, &cell->ctx) != HETINV_SUCCESS) {
-    snprintf(msg, msg_size, "%s: cannot create a context", sc->name);
+    snprintf(msg, msg_size, "%s: cannot create a context: %s", sc->name, hetinv_context_last_error_message(NULL));
     return -1;
   }
   hetinv_result_t r = recon_truth_create(cell->ctx, sc, &cell->truth);
