@@ -342,6 +342,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_get_param(const hetinv_optimizer_t *
                                                       hetinv_optimizer_param_t param,
                                                       double *value);
 
+/** The widest finite box hetinv_optimizer_set_bounds() takes: its width is
+ *  the entries' step scale, which the methods square. */
+#define HETINV_OPTIMIZER_MAX_BOX_WIDTH 1e100
+
 /**
  * @brief Box constraint of one physical parameter, applied to every π entry
  *        of that parameter by projection after each step.
@@ -352,7 +356,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_get_param(const hetinv_optimizer_t *
  * @param optimizer the optimizer.
  * @param param HETINV_PARAM_SIGMA_A, _SIGMA_S or _G.
  * @param lo, hi the bounds: lo < hi, within the parameter's domain
- *        (σ ≥ 0; −1 < g < 1); hi may be +∞ for σ.
+ *        (σ ≥ 0; −1 < g < 1); hi may be +∞ for σ; a finite hi − lo at
+ *        most HETINV_OPTIMIZER_MAX_BOX_WIDTH.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
  *         (param); HETINV_ERROR_INVALID_ARGUMENT (bounds);
  *         HETINV_ERROR_INVALID_STATE (run started).

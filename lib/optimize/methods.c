@@ -68,7 +68,9 @@ static double delta(const method_t *m, hetinv_optimizer_t *opt, size_t i, double
 /* HETINV_COORDINATES_LOG: entry i in u = ln π, whose gradient is π·g and
  * whose scale is ln(hi/lo); 0 if the entry's box does not allow it. */
 static double log_scale(const hetinv_optimizer_t *opt, size_t i) {
-  return hv_entry_log_box(opt, i) ? log(opt->hi_k[i] / opt->lo_k[i]) : 0.0;
+  if (!hv_entry_log_box(opt, i)) return 0.0;
+  double ratio = opt->hi_k[i] / opt->lo_k[i];
+  return isfinite(ratio) ? log(ratio) : log(opt->hi_k[i]) - log(opt->lo_k[i]); /* e.g. [1e-300, 1e50] */
 }
 
 static double clamp(double x, double lo, double hi) { return fmin(fmax(x, lo), hi); }

@@ -171,6 +171,13 @@ HETINV_API hetinv_result_t hetinv_optimizer_set_bounds(hetinv_optimizer_t *optim
                    "bounds [%g, %g] of %s: they need lo < hi %s", lo, hi, name,
                    sigma ? "and 0 <= lo < +inf" : "inside (-1, 1)");
   }
+  /* A finite box is the entries' scale s, and the methods square it
+   * (ADADELTA's (ε·s)², SGD's s²): wider, their steps overflow to inf. */
+  if (isfinite(hi) && hi - lo > HETINV_OPTIMIZER_MAX_BOX_WIDTH) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "bounds [%g, %g] of %s: a finite box at most %g wide (the steps' scale); +inf for no upper bound",
+                   lo, hi, name, HETINV_OPTIMIZER_MAX_BOX_WIDTH);
+  }
   if (optimizer->started) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "cannot change the bounds of %s: the run has started", name);
   }

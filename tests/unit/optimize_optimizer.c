@@ -136,6 +136,11 @@ static void bounds_are_validated(void **state) {
     assert_message_contains(bad[i].name);
     assert_message_contains("lo < hi");
   }
+  /* A finite box wider than the steps' scale can be squared: the steps
+   * overflowed to inf, then NaN, and the run still succeeded. */
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_A, 0, 1e200));
+  assert_message_contains("a finite box at most 1e+100 wide");
+  assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_A, 0, HETINV_OPTIMIZER_MAX_BOX_WIDTH));
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_bounds(opt, HETINV_PARAM_COUNT, 0, 1));
   assert_result(HETINV_ERROR_OUT_OF_RANGE, hetinv_optimizer_set_bounds(opt, -1, 0, 1));
   /* Valid ones, an infinite σ bound included. */

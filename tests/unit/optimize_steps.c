@@ -235,6 +235,16 @@ static void log_coordinates_step_by_a_factor(void **state) {
   h.grad[0] = 10.0;
   hv_method_step(&h.opt, NULL, 0.01);
   assert_true(h.pi[0] == 1.0);
+  /* A box whose ratio hi/lo overflows ([1e-300, 1e50]) still has its
+   * finite log width, ln 1e50 − ln 1e-300, and a finite step (it was
+   * ln(inf): the step went inf, then NaN). */
+  hand_init(&h, HETINV_METHOD_ADADELTA);
+  h.opt.param[HETINV_OPTIMIZER_COORDINATES] = HETINV_COORDINATES_LOG;
+  h.lo[0] = 1e-300, h.hi[0] = 1e50;
+  h.grad[0] = 3.0;
+  double wide = log(1e50) - log(1e-300);
+  assert_true(isfinite(hv_method_step(&h.opt, NULL, 0.01)));
+  assert_close(h.pi[0] / 5.0, exp(-0.01 * wide / sqrt(0.1)), 1e-12);
 }
 
 /* Mean-ratio coordinates: entries 0 (σa-like) and 1 (σs-like, both boxes
