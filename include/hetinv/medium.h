@@ -95,11 +95,18 @@ HETINV_API hetinv_result_t hetinv_medium_clone(const hetinv_medium_t *src, hetin
  */
 HETINV_API void hetinv_medium_destroy(hetinv_medium_t **medium);
 
+/** The largest relative index eta / eta_out (or its inverse) a boundary
+ *  may have; every dielectric lies far inside it, and Fresnel's arithmetic
+ *  (which squares it) stays exact. */
+#define HETINV_MAX_RELATIVE_IOR 1e3
+
 /**
  * @brief Set the refractive index inside (@p eta) and outside (@p eta_out).
  *        Equal values make the boundary index-matched (invisible).
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
- *         HETINV_ERROR_INVALID_ARGUMENT unless both are finite and > 0;
+ *         HETINV_ERROR_INVALID_ARGUMENT unless both are finite and > 0 and
+ *         eta / eta_out lies within [1 / HETINV_MAX_RELATIVE_IOR,
+ *         HETINV_MAX_RELATIVE_IOR];
  *         HETINV_ERROR_INVALID_STATE if committed.
  */
 HETINV_API hetinv_result_t hetinv_medium_set_ior(hetinv_medium_t *medium, double eta,

@@ -157,6 +157,14 @@ HETINV_API hetinv_result_t hetinv_medium_set_ior(hetinv_medium_t *medium, double
     return HV_FAIL(medium->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "eta_out (outside) is %g; it must be finite and > 0", eta_out);
   }
+  /* A ratio that underflowed to 0 (1e-200 / 1e200) tripped Fresnel's
+   * assertion in a render. */
+  double ratio = eta / eta_out;
+  if (!(ratio >= 1.0 / HETINV_MAX_RELATIVE_IOR && ratio <= HETINV_MAX_RELATIVE_IOR)) {
+    return HV_FAIL(medium->ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "eta / eta_out is %g / %g = %g; the relative index must be within [%g, %g]", eta, eta_out,
+                   ratio, 1.0 / HETINV_MAX_RELATIVE_IOR, HETINV_MAX_RELATIVE_IOR);
+  }
   medium->eta = eta;
   medium->eta_out = eta_out;
   return HETINV_SUCCESS;

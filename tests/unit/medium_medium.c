@@ -90,8 +90,14 @@ static void ior_is_set_and_validated(void **state) {
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, 1.3, (double)NAN));
   assert_message_contains("eta_out (outside) is nan");
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, (double)INFINITY, 1.0));
+  /* Both finite and > 0, but a ratio that underflows to 0 (it tripped
+   * Fresnel's assertion in a render) or no dielectric has. */
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, 1e-200, 1e200));
+  assert_message_contains("the relative index must be within [0.001, 1000]");
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_medium_set_ior(m, 1.0, 1001.0));
   assert_ok(hetinv_medium_get_ior(m, &eta, NULL));
   assert_true(eta == 1.3); /* unchanged by the failures */
+  assert_ok(hetinv_medium_set_ior(m, 1000.0, 1.0)); /* the limit itself */
   hetinv_medium_destroy(&m);
 }
 
