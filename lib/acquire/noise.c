@@ -132,7 +132,12 @@ HETINV_API hetinv_result_t hetinv_noise_apply(hetinv_context_t *ctx,
   for (ptrdiff_t i = 0; i < n; ++i) {
     double e = electrons(exposure * clean[i], model, model->first_index + (uint64_t)i);
     noisy[i] = e / exposure;
-    if (std_errors != NULL) std_errors[i] = sqrt(fmax(e, 0.0) + read_variance) / exposure;
+    if (std_errors != NULL) {
+      /* hypot where read_noise² overflows (read_noise past 1e154): the
+       * standard error itself is finite. */
+      std_errors[i] = (isfinite(read_variance) ? sqrt(fmax(e, 0.0) + read_variance)
+                                               : hypot(sqrt(fmax(e, 0.0)), model->read_noise)) / exposure;
+    }
   }
   if (exposure_used != NULL) *exposure_used = exposure;
   return HETINV_SUCCESS;

@@ -180,6 +180,16 @@ static void negative_values_are_kept_so_dark_pixels_stay_unbiased(void **state) 
   free(out);
 }
 
+/* A read noise the model allows whose square overflows (1e300 electrons):
+ * the standard error is read_noise / exposure, finite (it came back inf). */
+static void huge_read_noise_gives_a_finite_std_error(void **state) {
+  hetinv_noise_model_t m = counting_model(test_seed());
+  m.read_noise = 1e300;
+  double clean[2] = {0.0, 5.0}, out[2], se[2];
+  assert_ok(hetinv_noise_apply(*state, &m, clean, out, se, 2, NULL));
+  for (int i = 0; i < 2; ++i) assert_true(fabs(se[i] / 1e300 - 1.0) < 1e-12);
+}
+
 static void read_noise_leaves_the_photon_counts_unchanged(void **state) {
   const uint64_t seed = test_seed();
   const size_t n = 50000;
@@ -443,6 +453,7 @@ int main(void) {
       cmocka_unit_test(zero_lambda_gives_exactly_zero),
       cmocka_unit_test(read_noise_variance_adds_to_poisson),
       cmocka_unit_test(negative_values_are_kept_so_dark_pixels_stay_unbiased),
+      cmocka_unit_test(huge_read_noise_gives_a_finite_std_error),
       cmocka_unit_test(read_noise_leaves_the_photon_counts_unchanged),
       cmocka_unit_test(saturation_clamps_at_the_full_well),
       cmocka_unit_test(automatic_exposure_maps_the_largest_value_to_auto_level),
