@@ -266,6 +266,13 @@ class Lengths(ChildTest):
             expect(ValueError, hetinv.Emitter.area, m, "z_max", (0, 0, -1), (0, 0), (1, 1),
                    pattern=[1, 2, 3], pattern_shape=(2, 2))
             expect(ValueError, hetinv.Emitter.combination, m, [(0.5, 0.5, 1.5)], [(0, 0)], [1])
+            # Vectors of other lengths whose total is right were regrouped
+            # into other sources: each vector is checked.
+            expect(ValueError, hetinv.Emitter.combination, m, [(0.5, 0.5), (-1, 0.5, 0.5, -1)],
+                   [(0, 0, 1), (0, 0, 1)], [1, 1])
+            expect(ValueError, hetinv.Emitter.combination, m, [0.5, 0.5, -1, (0.5, 0.5, -1)],
+                   [(0, 0, 1), (0, 0, 1)], [1, 1])
+            hetinv.Emitter.combination(m, [0.5, 0.5, -1, 0.5, 0.5, -1], [(0, 0, 1), (0, 0, 1)], [1, 1])
             expect(ValueError, hetinv.vol_write, ctx, "x.vol", [1.0], (1, 1))
             expect(ValueError, hetinv.ParamMap.coarse, m, (1, 1))
         """)

@@ -5,6 +5,7 @@ indices they copy (they keep no pointer to it); all three are immutable.
 Faces are 0..5 or "x_min" ... "z_max"; a point on a face is (u, v).
 """
 import ctypes
+import numbers as numbers_abc
 
 from . import _arrays
 from ._args import integer, number
@@ -96,23 +97,33 @@ class Emitter(Handle):
         of 3-vectors (or flat 3·n sequences), weights n powers."""
         mp = _medium(medium)
         w = _arrays.to_c(weights, "d", name="weights")
-        o = _arrays.to_c(_flat(origins), "d", 3 * w.count, "origins")
-        d = _arrays.to_c(_flat(directions), "d", 3 * w.count, "directions")
+        o = _arrays.to_c(_flat(origins, "origins"), "d", 3 * w.count, "origins")
+        d = _arrays.to_c(_flat(directions, "directions"), "d", 3 * w.count, "directions")
         h = ctypes.c_void_p()
         check(lib.emitter_create_combination(mp, integer(w.count, "len(weights)"), o.ptr, d.ptr,
                                              w.ptr, ctypes.byref(h)))
         return cls._made(h, medium)
 
 
-def _flat(vectors):
+def _flat(vectors, name):
+    """3-vectors, or one flat sequence of 3·n numbers, as one flat sequence;
+    a vector of another length is an error, not regrouped with the next."""
     if hasattr(vectors, "shape"):
+        if len(vectors.shape) == 2 and vectors.shape[1] != 3:
+            raise ValueError(f"{name}: an array of shape {tuple(vectors.shape)}; expected (n, 3) or flat")
         return vectors  # numpy: read in C order
+    vectors = list(vectors)
+    numbers = [isinstance(v, numbers_abc.Real) for v in vectors]
+    if all(numbers):
+        return vectors
+    if any(numbers):
+        raise ValueError(f"{name}: mixes numbers and vectors; give 3-vectors or one flat sequence")
     out = []
-    for v in vectors:
-        if isinstance(v, (int, float)):
-            out.append(v)
-        else:
-            out.extend(v)
+    for i, v in enumerate(vectors):
+        v = list(v)
+        if len(v) != 3:
+            raise ValueError(f"{name}[{i}] has {len(v)} elements; expected a 3-vector")
+        out.extend(v)
     return out
 
 
