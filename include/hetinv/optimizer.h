@@ -298,7 +298,8 @@ typedef int (*hetinv_progress_fn)(const hetinv_progress_t *progress, void *user)
  *        start every free parameter and keep every other one.
  * @param[out] out receives the optimizer; NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
- *         HETINV_ERROR_INVALID_ARGUMENT (empty set);
+ *         HETINV_ERROR_INVALID_ARGUMENT (empty set; initial of another box
+ *         or indices than the set's);
  *         HETINV_ERROR_OUT_OF_MEMORY.
  */
 HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
@@ -421,7 +422,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_set_progress(hetinv_optimizer_t *opt
  * @param optimizer the optimizer.
  * @param path the checkpoint file (copied), replaced atomically each time;
  *        or NULL.
- * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_MEMORY.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
+ *         HETINV_ERROR_INVALID_ARGUMENT (an empty path); HETINV_ERROR_OUT_OF_MEMORY.
  */
 HETINV_API hetinv_result_t hetinv_optimizer_set_checkpoint(hetinv_optimizer_t *optimizer,
                                                            const char *path);

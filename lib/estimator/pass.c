@@ -93,16 +93,8 @@ hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "count is %zu; the measurement set has %zu values", count, set->value_count);
   }
-  hv_geometry_t geo;
-  hv_geometry_of(medium, &geo);
-  if (!hv_geometry_equal(&geo, &set->geo)) {
-    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "the medium's box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g differs from "
-                   "the box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g the set was made for",
-                   geo.lo[0], geo.hi[0], geo.lo[1], geo.hi[1], geo.lo[2], geo.hi[2], geo.eta,
-                   geo.eta_out, set->geo.lo[0], set->geo.hi[0], set->geo.lo[1], set->geo.hi[1],
-                   set->geo.lo[2], set->geo.hi[2], set->geo.eta, set->geo.eta_out);
-  }
+  hetinv_result_t checked = hv_measurements_check_medium(ctx, set, medium);
+  if (checked != HETINV_SUCCESS) return checked;
   *pass = (hv_pass_t){.ctx = ctx,
                       .start_seconds = hv_now_seconds(),
                       .grad_scratch = est->grad_scratch,

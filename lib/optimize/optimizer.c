@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "optimize/optimizer_internal.h"
 #include "param/param_map_internal.h"
+#include "sampling/measurements_internal.h"
 
 typedef struct param_info {
   double def, lo, hi;
@@ -51,6 +52,9 @@ HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
   if (hetinv_measurements_row_count(set) == 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "the measurement set has no rows");
   }
+  /* Here, not at the run's first render. */
+  hetinv_result_t r = hv_measurements_check_medium(ctx, set, initial);
+  if (r != HETINV_SUCCESS) return r;
   hetinv_optimizer_t *opt = hv_calloc(ctx, 1, sizeof *opt);
   if (opt == NULL) return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the optimizer");
   opt->ctx = ctx;
@@ -60,7 +64,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_create(hetinv_context_t *ctx,
   opt->hi[HETINV_PARAM_SIGMA_A] = opt->hi[HETINV_PARAM_SIGMA_S] = (double)INFINITY;
   opt->lo[HETINV_PARAM_G] = -0.99;
   opt->hi[HETINV_PARAM_G] = 0.99;
-  hetinv_result_t r = hetinv_medium_clone(initial, &opt->initial);
+  r = hetinv_medium_clone(initial, &opt->initial);
   if (r == HETINV_SUCCESS) r = hetinv_medium_commit(opt->initial);
   if (r == HETINV_SUCCESS) r = hv_emitter_groups_build(ctx, set, &opt->groups);
   if (r != HETINV_SUCCESS) {
@@ -289,6 +293,9 @@ HETINV_API hetinv_result_t hetinv_optimizer_set_checkpoint(hetinv_optimizer_t *o
   HV_API_ENTER();
   HV_CHECK_NULL(NULL, optimizer);
   char *copy = NULL;
+  if (path != NULL && path[0] == '\0') { /* else refused only after the run's first iterations */
+    return HV_FAIL(optimizer->ctx, HETINV_ERROR_INVALID_ARGUMENT, "the checkpoint path is empty (NULL stops checkpoints)");
+  }
   if (path != NULL) {
     copy = hv_strdup(optimizer->ctx, path);
     if (copy == NULL) return HV_FAIL(optimizer->ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot copy the path");

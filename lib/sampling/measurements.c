@@ -286,3 +286,16 @@ HETINV_API const uint8_t *hetinv_measurements_mask(const hetinv_measurements_t *
   HV_API_ENTER();
   return set && set->value_count ? set->mask : NULL;
 }
+
+hetinv_result_t hv_measurements_check_medium(const hetinv_context_t *ctx, const hetinv_measurements_t *set,
+                                             const hetinv_medium_t *medium) {
+  hv_geometry_t geo;
+  hv_geometry_of(medium, &geo);
+  if (hv_geometry_equal(&geo, &set->geo)) return HETINV_SUCCESS;
+  return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                 "the medium's box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g differs from "
+                 "the box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g the set was made for",
+                 geo.lo[0], geo.hi[0], geo.lo[1], geo.hi[1], geo.lo[2], geo.hi[2], geo.eta, geo.eta_out,
+                 set->geo.lo[0], set->geo.hi[0], set->geo.lo[1], set->geo.hi[1], set->geo.lo[2], set->geo.hi[2],
+                 set->geo.eta, set->geo.eta_out);
+}

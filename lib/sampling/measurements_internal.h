@@ -27,4 +27,9 @@ struct hetinv_measurements {
   uint8_t *mask;
 };
 
+/* Fails (INVALID_ARGUMENT, both boxes and indices named) unless the medium
+ * has the box and indices the set was made for. */
+hetinv_result_t hv_measurements_check_medium(const hetinv_context_t *ctx, const hetinv_measurements_t *set,
+                                             const hetinv_medium_t *medium);
+
 #endif

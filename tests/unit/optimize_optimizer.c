@@ -181,6 +181,15 @@ static void stage_and_create_errors(void **state) {
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_create(p->ctx, empty, p->initial, &opt));
   assert_null(opt);
   hetinv_measurements_destroy(&empty);
+  /* An initial medium of other indices than the set's: refused here, not
+   * at the run's first render. */
+  hetinv_medium_t *other_ior = NULL;
+  assert_ok(hetinv_medium_clone(p->initial, &other_ior));
+  assert_ok(hetinv_medium_set_ior(other_ior, 1.5, 1.0));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_create(p->ctx, p->set, other_ior, &opt));
+  assert_message_contains("the set was made for");
+  assert_null(opt);
+  hetinv_medium_destroy(&other_ior);
 
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
@@ -285,6 +294,8 @@ static void null_arguments_are_refused(void **state) {
   /* NULL clears the callback and the checkpoint path; the run needs neither. */
   assert_ok(hetinv_optimizer_set_checkpoint(opt, "/nonexistent/dir/x.ckpt"));
   assert_ok(hetinv_optimizer_set_checkpoint(opt, NULL));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_set_checkpoint(opt, ""));
+  assert_message_contains("the checkpoint path is empty");
   assert_ok(hetinv_optimizer_set_progress(opt, NULL, NULL));
   assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
   assert_ok(hetinv_optimizer_get_pi(opt, 0, pi, 1));
