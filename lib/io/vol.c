@@ -300,10 +300,11 @@ static hetinv_result_t check_header(const hetinv_context_t *ctx,
   for (int i = 0; i < 3; ++i) {
     double lo = h->box_min[i], hi = h->box_max[i];
     /* fabs() <= FLT_MAX also rejects NaN and keeps the float conversion defined. */
-    if (!(fabs(lo) <= (double)FLT_MAX) || !(fabs(hi) <= (double)FLT_MAX) || !(lo < hi)) {
+    /* Compared as stored: [1, 1 + 1e-12] is [1, 1] in float32. */
+    if (!(fabs(lo) <= (double)FLT_MAX) || !(fabs(hi) <= (double)FLT_MAX) || !((float)lo < (float)hi)) {
       return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                     "the box along %c is [%g, %g]; both ends must be finite float32 values "
-                     "and box_min < box_max",
+                     "the box along %c is [%.9g, %.9g]; both ends must be finite float32 values "
+                     "and box_min < box_max in float32",
                      axis_names[i], lo, hi);
     }
   }

@@ -384,6 +384,9 @@ static void bad_header_is_rejected_and_leaves_no_file(void **state) {
       {{{1, 1, 1}, 1, {0, 0, 0}, {1, 0, 1}}, "the box along y is [0, 0]"},
       {{{1, 1, 1}, 1, {0, 0, (double)INFINITY}, {1, 1, 1}}, "the box along z is [inf, 1]"},
       {{{1, 1, 1}, 1, {0, 0, 0}, {1e300, 1, 1}}, "the box along x is [0, 1e+300]"},
+      /* Distinct in double, equal once stored as float32. */
+      {{{1, 1, 1}, 1, {0, 0, 1}, {1, 1, 1 + 1e-12}}, "the box along z is [1, 1]; both ends must be finite float32 "
+                                                   "values and box_min < box_max in float32"},
   };
   const float v[1] = {1.0f};
   for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
