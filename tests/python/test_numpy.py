@@ -127,6 +127,15 @@ class WithNumpy(unittest.TestCase):
         m.set_grid("sigma_a", np.linspace(0, 1, 32)[::2])       # strided
         self.assertEqual(m.grid("sigma_a")[0, 0, 1], np.linspace(0, 1, 32)[2])
 
+    def test_complex_and_out_of_float32_values_are_refused(self):
+        # numpy only warned: complex values lost their imaginary part, and a
+        # float64 past float32's range became inf.
+        m = hetinv.Medium(self.ctx, (0, 0, 0), (4, 4, 1), (4, 4, 1))
+        with self.assertRaisesRegex(TypeError, "values: complex values"):
+            m.set_grid("sigma_s", np.ones(16, dtype=complex))
+        with self.assertRaisesRegex(ValueError, r"data: 1e\+300 is beyond float32's range"):
+            hetinv.vol_write(self.ctx, "unused.vol", np.array([1e300, 1.0, 1.0, 1.0]), (2, 2, 1))
+
     def test_noise_and_vol_with_numpy(self):
         noisy = hetinv.apply_noise(self.ctx, np.full(5, 0.5), seed=1)
         self.assertIsInstance(noisy.values, np.ndarray)

@@ -64,6 +64,16 @@ def to_c(values, typecode="d", count=None, name="values"):
     if values is None:
         return CArray(None, 0, None)
     if _np is not None and isinstance(values, _np.ndarray):
+        # Refused where numpy would only warn: complex values lose their
+        # imaginary part, and a float64 past float32's range becomes inf
+        # (the library would then name inf, not the value given).
+        if values.dtype.kind == "c":
+            raise TypeError("%s: complex values (dtype %s); expected real numbers" % (name, values.dtype))
+        if typecode == "f" and values.dtype.kind == "f" and values.size:
+            finite = values[_np.isfinite(values)]
+            big = finite[_np.abs(finite) > _np.finfo(_np.float32).max]
+            if big.size:
+                raise ValueError("%s: %r is beyond float32's range" % (name, float(big.reshape(-1)[0])))
         arr = _np.ascontiguousarray(values, dtype=_NPTYPE[typecode]).reshape(-1)
         n = arr.size
         ptr = arr.ctypes.data_as(ctypes.POINTER(ctype))
