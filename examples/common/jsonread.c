@@ -1,11 +1,17 @@
+#ifndef _POSIX_C_SOURCE /* open, fstat, fdopen */
+#define _POSIX_C_SOURCE 200809L
+#endif
 #include "jsonread.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 int jr_fail(jr_t *jr, const char *path, const char *fmt, ...) {
   char what[3072];
@@ -243,9 +249,21 @@ int jr_object(jr_t *jr, const cJSON *object, const char *path, const char *key, 
   return 1;
 }
 
+/* A regular file only: the open of a FIFO with no writer blocked forever
+ * (O_NONBLOCK returns at once, then fstat refuses it), and /dev/zero was
+ * read to 1 GiB before it was refused. */
 static int read_file(jr_t *jr, const char *path, char **out) {
-  FILE *f = fopen(path, "rb");
-  if (f == NULL) return jr_fail(jr, "", "cannot open: %s", strerror(errno));
+  int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) return jr_fail(jr, "", "cannot open: %s", strerror(errno));
+  struct stat st;
+  const char *why = fstat(fd, &st) != 0 ? strerror(errno) : S_ISREG(st.st_mode) ? NULL : "not a regular file";
+  if (why == NULL && st.st_size >= (off_t)1 << 30) why = "larger than 1 GiB; not a scene";
+  FILE *f = why == NULL ? fdopen(fd, "rb") : NULL;
+  if (f == NULL) {
+    if (why == NULL) why = strerror(errno);
+    close(fd);
+    return jr_fail(jr, "", "cannot read: %s", why);
+  }
   size_t cap = 1 << 16, len = 0;
   char *text = malloc(cap);
   for (;;) {
