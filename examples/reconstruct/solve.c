@@ -203,6 +203,23 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
                             bool resume, bool quiet, hetinv_medium_t **out, double *seconds, char *msg,
                             size_t msg_size) {
   *out = NULL;
+  /* Nothing left to fit is an error, not a "recovery" equal to the start. */
+  size_t values = hetinv_measurements_value_count(im->set), masked = 0, weightless = 0;
+  const uint8_t *mask = hetinv_measurements_mask(im->set);
+  const double *weight = hetinv_measurements_weights(im->set);
+  for (size_t i = 0; i < values; ++i) {
+    if (mask != NULL && mask[i] == 0) {
+      ++masked;
+    } else if (weight != NULL && !(weight[i] > 0.0)) {
+      ++weightless;
+    }
+  }
+  if (masked + weightless == values) {
+    snprintf(msg, msg_size, "no value is left in the loss: %zu of %zu masked (acquisition.min_snr, "
+             "acquisition.saturation or the measurements' mask), %zu of weight 0 (acquisition.weighting); "
+             "nothing to fit", masked, values, weightless);
+    return HETINV_ERROR_INVALID_ARGUMENT;
+  }
   hetinv_medium_t *init = NULL;
   hetinv_optimizer_t *opt = NULL;
   hetinv_estimator_t *est = NULL;
