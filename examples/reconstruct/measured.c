@@ -32,7 +32,7 @@ static int read_stack(hetinv_context_t *ctx, const scene_t *scene, int row, size
   int status = -1;
   char name[32];
   scene_channel_name(pl, pl->count - 1, name, sizeof name);
-  if (channels != pl->count) {
+  if (channels < pl->count) { /* more are fine: each bin's channel is found by name, others ignored */
     snprintf(msg, msg_size, "%s: %d channel%s; measurement row %d \"%s\" has %d pathlength bin%s "
              "(pathlength \"%s\"), so expected channels %s%s%s", file, (int)channels,
              channels == 1 ? "" : "s", row, rw->name, (int)pl->count, pl->count == 1 ? "" : "s",
