@@ -186,6 +186,15 @@ static hetinv_result_t write_gains(const recon_scene_t *sc, const recon_imaging_
     printf("\n");
     fflush(stdout);
   }
+  /* 0 is the fit's floor (gain.c): the data hold no light the model
+   * renders there, and the recovery was not pulled by them. */
+  for (size_t i = 0; i < count; ++i) {
+    if (gains[i] == 0.0) {
+      fprintf(stderr, "hetinv-reconstruct: calibration gain %s is 0: its measured values hold no light the model "
+              "renders (all zero or negative?), so they did not shape the recovery\n",
+              gain_name(im, sc->gain_mode, i, buf, sizeof buf));
+    }
+  }
   snprintf(path, sizeof path, "%s/gains.csv", sc->output);
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
   if (f != NULL) {
