@@ -214,9 +214,10 @@ static hetinv_result_t write_gains(const recon_scene_t *sc, const recon_imaging_
  * render scene's text in files mode (emitters, sensors, bins, IRF, box)
  * and the gain mode. A resume under other ones mixed two forward models. */
 static void resume_key(const recon_scene_t *sc, char *key, size_t size) {
-  uint64_t h = UINT64_C(14695981039346656037);
+  uint64_t h = RECON_FNV_OFFSET;
   FILE *f = sc->render_scene[0] != '\0' ? fopen(sc->render_scene, "rb") : NULL;
-  for (int c; f != NULL && (c = fgetc(f)) != EOF;) h = (h ^ (unsigned char)c) * UINT64_C(1099511628211);
+  unsigned char buf[4096];
+  for (size_t n; f != NULL && (n = fread(buf, 1, sizeof buf, f)) > 0;) h = recon_fnv1a(h, buf, n);
   if (f != NULL) fclose(f);
   snprintf(key, size, "render_scene=%016llx gain_mode=%d\n", (unsigned long long)h, sc->gain_mode);
 }
