@@ -404,8 +404,6 @@ static void drop_checkpoint(const char *dir) {
     fprintf(stderr, "hetinv-fig4: warning: %s: %s (a rerun under other settings will refuse it)\n", path,
             strerror(errno));
   }
-  snprintf(path, sizeof path, "%s/checkpoint.key", dir); /* recon_solve's, beside it */
-  if (remove(path) != 0 && errno != ENOENT) fprintf(stderr, "hetinv-fig4: warning: %s: %s\n", path, strerror(errno));
 }
 
 /* Simulates, reconstructs and writes one cell's outputs; an interrupted

@@ -209,49 +209,6 @@ static hetinv_result_t write_gains(const recon_scene_t *sc, const recon_imaging_
   return HETINV_SUCCESS;
 }
 
-/* What a checkpoint's library fingerprint (the set's values, weights and
- * mask, the stages, the tunables) does not cover, written beside it: the
- * render scene's text in files mode (emitters, sensors, bins, IRF, box)
- * and the gain mode. A resume under other ones mixed two forward models. */
-static void resume_key(const recon_scene_t *sc, char *key, size_t size) {
-  uint64_t h = RECON_FNV_OFFSET;
-  FILE *f = sc->render_scene[0] != '\0' ? fopen(sc->render_scene, "rb") : NULL;
-  unsigned char buf[4096];
-  for (size_t n; f != NULL && (n = fread(buf, 1, sizeof buf, f)) > 0;) h = recon_fnv1a(h, buf, n);
-  if (f != NULL) fclose(f);
-  snprintf(key, size, "render_scene=%016llx gain_mode=%d\n", (unsigned long long)h, sc->gain_mode);
-}
-
-/* On --resume, refuses a checkpoint whose key file differs (none: a run
- * older than the key, accepted); then writes this run's key (`write`: rank
- * 0; every rank reads, as every rank reads the checkpoint, so all fail
- * alike). */
-static hetinv_result_t check_resume_key(const recon_scene_t *sc, bool resuming, bool write, char *msg,
-                                        size_t msg_size) {
-  char key[128], old[128] = "", path[1100], tmp[1120];
-  resume_key(sc, key, sizeof key);
-  snprintf(path, sizeof path, "%s/checkpoint.key", sc->output);
-  FILE *f = resuming ? fopen(path, "r") : NULL;
-  if (f != NULL) {
-    if (fgets(old, sizeof old, f) == NULL) old[0] = '\0';
-    fclose(f);
-    if (strcmp(old, key) != 0) {
-      old[strcspn(old, "\n")] = '\0';
-      snprintf(msg, msg_size, "--resume: %s was written under another render scene or gain mode (%s; now %.*s); "
-               "rerun without --resume", path, old, (int)strcspn(key, "\n"), key);
-      return HETINV_ERROR_INVALID_ARGUMENT;
-    }
-  }
-  if (!write) return HETINV_SUCCESS;
-  f = recon_text_begin(path, tmp, sizeof tmp);
-  if (f != NULL) fputs(key, f);
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
-    snprintf(msg, msg_size, "%s: %s", path, strerror(errno));
-    return HETINV_ERROR_IO;
-  }
-  return HETINV_SUCCESS;
-}
-
 hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, recon_imaging_t *im,
                             bool resume, bool quiet, hetinv_medium_t **out, double *seconds, char *msg,
                             size_t msg_size) {
@@ -314,11 +271,6 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_checkpoint(opt, checkpoint);
   struct stat st;
   const bool resuming = resume && stat(checkpoint, &st) == 0;
-  bool key_failed = false;
-  if (r == HETINV_SUCCESS) {
-    r = check_resume_key(sc, resuming, hetinv_context_rank(ctx) == 0, msg, msg_size);
-    key_failed = r != HETINV_SUCCESS;
-  }
   if (r == HETINV_SUCCESS && resuming) {
     r = hetinv_optimizer_resume(opt, checkpoint);
     if (r == HETINV_SUCCESS && !quiet) fprintf(stderr, "resuming from %s\n", checkpoint);
@@ -333,7 +285,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (seconds) *seconds = pl.elapsed;
   if (stage_failed) {
     snprintf(msg, msg_size, "%s", pl.failure);
-  } else if (r != HETINV_SUCCESS && !key_failed) {
+  } else if (r != HETINV_SUCCESS) {
     snprintf(msg, msg_size, "reconstruction: %s", hetinv_context_last_error_message(ctx));
   }
   double *gains = NULL;

@@ -374,8 +374,9 @@ enum hetinv_gain_mode_id {
  * The gains are fitted on the set passed to each call: the optimizer's
  * minibatches see only their emitters' values, so a global gain is then
  * fitted per minibatch. hetinv_estimator_render(), hetinv_estimator_gradient(),
- * hetinv_estimator_jvp() and the bound (hetinv/bound.h) ignore the mode. The
- * mode is not part of an optimizer checkpoint's fingerprint.
+ * hetinv_estimator_jvp() and the bound (hetinv/bound.h) ignore the mode. A
+ * resumed optimizer run refuses an estimator of another mode than its
+ * checkpoint's (hetinv_optimizer_resume()).
  * @param estimator the estimator.
  * @param mode HETINV_GAIN_NONE, HETINV_GAIN_GLOBAL or HETINV_GAIN_PER_EMITTER.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE

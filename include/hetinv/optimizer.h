@@ -443,6 +443,15 @@ HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optim
  *        the one that wrote it (same set, initial medium, tunables, bounds
  *        and stages); the next hetinv_optimizer_run() continues that run.
  *
+ * "Same set" means the same values, weights, mask and clip scales, and
+ * the same geometry: the box and its indices, and row by row the emitter,
+ * sensor and pathlength bins (with any instrument response), compared by
+ * a hash of every number that shapes the rendered values, so a set built
+ * alike in another process matches. The estimator given to the next run
+ * must have the run's tunables (EPOCH aside) and gain mode. Checkpoints of
+ * format 6 and older hold no geometry hash or gain mode: they resume
+ * without those two checks.
+ *
  * The checkpoint is validated field by field against the optimizer's
  * configuration, not only by its checksum (which detects damage, not a
  * stale or crafted file): the stage and iteration counts within the
@@ -459,9 +468,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optim
  *         HETINV_ERROR_CORRUPT_FILE (bad magic, truncated, checksum, too
  *         large, or a field the configured run cannot have: the message
  *         names the field, its value and the limit);
- *         HETINV_ERROR_UNSUPPORTED (a format version other than 3, today's,
- *         or 2, the one before HETINV_ESTIMATOR_LOSS_CLIP, which resumes
- *         as least squares; or another byte order);
+ *         HETINV_ERROR_UNSUPPORTED (a format version other than 2 to 7,
+ *         today's; or another byte order);
  *         HETINV_ERROR_INVALID_ARGUMENT (written by a differently configured
  *         optimizer; the message names what differs);
  *         HETINV_ERROR_INVALID_STATE (run started); HETINV_ERROR_OUT_OF_MEMORY.

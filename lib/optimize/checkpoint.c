@@ -8,8 +8,9 @@
  *   "HVCKPT01", byte-order tag, format version,
  *   fingerprint: value count, rows, emitters, stages and per stage
  *     (entries, iterations, hash of its masks), the tunables, the bounds,
- *     the estimator's tunables, hash of the set, hash of the initial
- *     medium, context seed;
+ *     the estimator's tunables, hash of the set's values, hash of the
+ *     initial medium, context seed, hash of the set's geometry
+ *     (estimator/set_hash.h), the estimator's gain mode;
  *   state: stage, stage iteration, iteration, elapsed, entries, π and two
  *     accumulators, window, ring count and head, ring, loss count and
  *     losses, the base medium's three grids;
@@ -23,18 +24,10 @@
 #include "core/alloc.h"
 #include "core/error.h"
 #include "io/atomic_file.h"
+#include "estimator/set_hash.h"
 #include "optimize/checkpoint_internal.h"
 #include "optimize/optimizer_internal.h"
 #include "sampling/measurements_internal.h"
-
-uint64_t hv_ckpt_fnv1a(uint64_t h, const void *data, size_t n) {
-  const unsigned char *p = data;
-  for (size_t i = 0; i < n; ++i) {
-    h ^= p[i];
-    h *= UINT64_C(0x100000001b3);
-  }
-  return h;
-}
 
 /* --- a growable byte buffer -------------------------------------------- */
 
@@ -81,18 +74,18 @@ void hv_ckpt_fingerprint(const hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *f
     const hv_stage_t *st = &opt->stages[s];
     f->stage_k[s] = st->k;
     f->stage_iterations[s] = (uint64_t)st->iterations;
-    uint64_t h = HV_CKPT_FNV_OFFSET;
-    if (st->frozen) h = hv_ckpt_fnv1a(h, st->frozen, st->k);
-    h = hv_ckpt_fnv1a(h, "|", 1);
-    if (st->value_mask) h = hv_ckpt_fnv1a(h, st->value_mask, set->value_count);
+    uint64_t h = HV_FNV_OFFSET;
+    if (st->frozen) h = hv_fnv1a(h, st->frozen, st->k);
+    h = hv_fnv1a(h, "|", 1);
+    if (st->value_mask) h = hv_fnv1a(h, st->value_mask, set->value_count);
     /* A stage's epsilon_start, average_window and settling join its masks' hash: same file layout, and a resume
      * with another ε is refused like one with other masks. 0 (the tunable)
      * adds nothing, so older checkpoints still match. */
-    if (st->epsilon_start != 0.0) h = hv_ckpt_fnv1a(h, &st->epsilon_start, sizeof st->epsilon_start);
-    if (st->average_window != 0) h = hv_ckpt_fnv1a(h, &st->average_window, sizeof st->average_window);
+    if (st->epsilon_start != 0.0) h = hv_fnv1a(h, &st->epsilon_start, sizeof st->epsilon_start);
+    if (st->average_window != 0) h = hv_fnv1a(h, &st->average_window, sizeof st->average_window);
     if (st->settle_epsilon != 0.0) {
-      h = hv_ckpt_fnv1a(h, &st->settle_epsilon, sizeof st->settle_epsilon);
-      h = hv_ckpt_fnv1a(h, &st->settle_fraction, sizeof st->settle_fraction);
+      h = hv_fnv1a(h, &st->settle_epsilon, sizeof st->settle_epsilon);
+      h = hv_fnv1a(h, &st->settle_fraction, sizeof st->settle_fraction);
     }
     f->stage_masks[s] = h;
   }
@@ -100,26 +93,28 @@ void hv_ckpt_fingerprint(const hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *f
   memcpy(f->lo, opt->lo, sizeof f->lo);
   memcpy(f->hi, opt->hi, sizeof f->hi);
   memcpy(f->est_param, opt->est_param, sizeof f->est_param);
-  uint64_t h = HV_CKPT_FNV_OFFSET;
+  uint64_t h = HV_FNV_OFFSET;
   size_t n = set->value_count;
-  h = hv_ckpt_fnv1a(h, set->values, n * sizeof(double));
-  h = hv_ckpt_fnv1a(h, set->weights, n * sizeof(double));
-  h = hv_ckpt_fnv1a(h, set->mask, n);
+  h = hv_fnv1a(h, set->values, n * sizeof(double));
+  h = hv_fnv1a(h, set->weights, n * sizeof(double));
+  h = hv_fnv1a(h, set->mask, n);
   /* The clip's scales join the hash only where one differs from 1, so a
    * set without them hashes as before they existed. */
   for (size_t i = 0; i < n; ++i) {
     if (set->clip_below[i] == 1.0 && set->clip_above[i] == 1.0) continue;
     uint64_t at = i;
-    h = hv_ckpt_fnv1a(h, &at, sizeof at);
-    h = hv_ckpt_fnv1a(h, &set->clip_below[i], sizeof(double));
-    h = hv_ckpt_fnv1a(h, &set->clip_above[i], sizeof(double));
+    h = hv_fnv1a(h, &at, sizeof at);
+    h = hv_fnv1a(h, &set->clip_below[i], sizeof(double));
+    h = hv_fnv1a(h, &set->clip_above[i], sizeof(double));
   }
   f->set_hash = h;
-  h = HV_CKPT_FNV_OFFSET;
+  h = HV_FNV_OFFSET;
   size_t v = hetinv_medium_voxel_count(opt->initial);
-  for (int p = 0; p < HETINV_PARAM_COUNT; ++p) h = hv_ckpt_fnv1a(h, hetinv_medium_grid(opt->initial, p), v * sizeof(double));
+  for (int p = 0; p < HETINV_PARAM_COUNT; ++p) h = hv_fnv1a(h, hetinv_medium_grid(opt->initial, p), v * sizeof(double));
   f->medium_hash = h;
   f->seed = hetinv_context_seed(opt->ctx);
+  f->geometry_hash = hv_set_geometry_hash(set);
+  f->gain_mode = (uint64_t)opt->gain_mode;
 }
 
 const char *hv_ckpt_fingerprint_diff(const hv_ckpt_fingerprint_t *a, const hv_ckpt_fingerprint_t *b, char *msg, size_t len) {
@@ -130,6 +125,10 @@ const char *hv_ckpt_fingerprint_diff(const hv_ckpt_fingerprint_t *a, const hv_ck
     return msg;
   }
   if (a->set_hash != b->set_hash) return "the measured values, weights, clip scales or mask differ";
+  if (a->geometry_hash != b->geometry_hash) {
+    return "the measurement geometry differs (the box, its indices, or a row's emitter, sensor, pathlength bins or "
+           "instrument response)";
+  }
   if (a->medium_hash != b->medium_hash) return "the initial medium differs";
   if (a->seed != b->seed) return "the context's seed differs";
   if (a->stages != b->stages) {
@@ -193,7 +192,7 @@ hetinv_result_t hv_checkpoint_write(const hetinv_optimizer_t *opt, const char *p
   put_f64s(&b, opt->losses, opt->loss_count);
   size_t v = hetinv_medium_voxel_count(opt->base);
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) put_f64s(&b, hetinv_medium_grid(opt->base, p), v);
-  put_u64(&b, hv_ckpt_fnv1a(HV_CKPT_FNV_OFFSET, b.data, b.len));
+  put_u64(&b, hv_fnv1a(HV_FNV_OFFSET, b.data, b.len));
   if (b.failed) {
     hv_free(ctx, b.data);
     return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot build the checkpoint of '%s'", path);

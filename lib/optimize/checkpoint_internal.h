@@ -6,22 +6,21 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "core/hash.h"
 #include "optimize/optimizer_internal.h"
 
 #define HV_CKPT_MAGIC "HVCKPT01"
 #define HV_CKPT_BYTE_ORDER_TAG UINT64_C(0x0102030405060708)
-/* Format 6 added HETINV_OPTIMIZER_BOX_MARGIN to the fingerprint's
+/* Format 7 added the set's geometry hash and the gain mode at the
+ * fingerprint's end: formats up to 6 are read without those two checks
+ * (they cannot be made), as before. Format 6 added HETINV_OPTIMIZER_BOX_MARGIN to the fingerprint's
  * tunables, format 5 HETINV_OPTIMIZER_MULTISCALE, format 4
  * HETINV_OPTIMIZER_SMOOTHNESS, format 3 HETINV_ESTIMATOR_LOSS_CLIP to its
  * estimator tunables. Formats 2 to 5 are still read: the tunables they
  * lack were 0 (iterates inside the box, no multi-scale step, no prior,
  * least squares) in every such run. */
-#define HV_CKPT_FORMAT_VERSION 6u
+#define HV_CKPT_FORMAT_VERSION 7u
 #define HV_CKPT_FORMAT_OLDEST 2u
-#define HV_CKPT_FNV_OFFSET UINT64_C(0xcbf29ce484222325)
-
-/* FNV-1a 64 of n bytes, continuing from h (start at HV_CKPT_FNV_OFFSET). */
-uint64_t hv_ckpt_fnv1a(uint64_t h, const void *data, size_t n);
 
 /* The configuration a checkpoint was written for; stored as it is (every
  * field 8 bytes, no padding). */
@@ -32,6 +31,9 @@ typedef struct hv_ckpt_fingerprint {
   double lo[HETINV_PARAM_COUNT], hi[HETINV_PARAM_COUNT];
   double est_param[HETINV_ESTIMATOR_PARAM_COUNT_];
   uint64_t set_hash, medium_hash, seed;
+  /* Format 7: hv_set_geometry_hash() of the set, and the estimator's gain
+   * mode (compared when the run continues, as the estimator's tunables). */
+  uint64_t geometry_hash, gain_mode;
 } hv_ckpt_fingerprint_t;
 
 /* The fingerprint of an optimizer (its stages' iterations resolved). */

@@ -33,6 +33,7 @@ typedef struct reader {
   size_t len, at;
   bool short_read;
   size_t older_format_less; /* bytes an older format's fingerprint lacks */
+  bool has_geometry;        /* format 7 on: the set's geometry hash and the gain mode */
 } reader_t;
 
 static void get(reader_t *r, void *out, size_t n) {
@@ -394,8 +395,12 @@ static void read_fingerprint(reader_t *rd, uint64_t version, hv_ckpt_fingerprint
   get(rd, base + at_param, params * sizeof(double));
   get(rd, base + at_lo, at_est - at_lo);
   get(rd, base + at_est, est_params * sizeof(double));
-  get(rd, base + at_tail, sizeof *saved - at_tail);
-  rd->older_format_less = (HETINV_OPTIMIZER_PARAM_COUNT_ - params + HETINV_ESTIMATOR_PARAM_COUNT_ - est_params) * sizeof(double);
+  size_t at_geometry = offsetof(hv_ckpt_fingerprint_t, geometry_hash);
+  size_t tail = version >= 7 ? sizeof *saved - at_tail : at_geometry - at_tail;
+  get(rd, base + at_tail, tail);
+  rd->older_format_less = (HETINV_OPTIMIZER_PARAM_COUNT_ - params + HETINV_ESTIMATOR_PARAM_COUNT_ - est_params) * sizeof(double) +
+                          (sizeof *saved - at_tail - tail);
+  rd->has_geometry = version >= 7;
 }
 
 /* Header, checksum and format; then the configuration it was written for. */
@@ -408,7 +413,7 @@ static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckp
   if (rd->short_read || memcmp(magic, HV_CKPT_MAGIC, 8) != 0) {
     return corrupt(rd, "not a libhetinv checkpoint (bad magic)");
   }
-  if (rd->len < rd->at + 8 || hv_ckpt_fnv1a(HV_CKPT_FNV_OFFSET, rd->p, rd->len - 8) != stored_checksum(rd)) {
+  if (rd->len < rd->at + 8 || hv_fnv1a(HV_FNV_OFFSET, rd->p, rd->len - 8) != stored_checksum(rd)) {
     return corrupt(rd, "damaged: its checksum does not match");
   }
   if (tag != HV_CKPT_BYTE_ORDER_TAG || version < HV_CKPT_FORMAT_OLDEST || version > HV_CKPT_FORMAT_VERSION) {
@@ -420,11 +425,16 @@ static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckp
   hv_ckpt_fingerprint_t here;
   hv_ckpt_fingerprint(opt, &here);
   memcpy(here.est_param, saved->est_param, sizeof here.est_param); /* compared when the run continues */
+  here.gain_mode = saved->gain_mode;                                 /* so is this */
+  if (!rd->has_geometry) here.geometry_hash = saved->geometry_hash; /* an older format: cannot be checked */
   char msg[256];
   const char *diff = hv_ckpt_fingerprint_diff(saved, &here, msg, sizeof msg);
   if (diff) {
     return HV_FAIL(rd->ctx, HETINV_ERROR_INVALID_ARGUMENT, "%s was written for another run: %s", rd->name,
                    diff);
+  }
+  if (saved->gain_mode > HETINV_GAIN_PER_EMITTER) {
+    return corrupt(rd, "the gain mode is %llu; it must be 0, 1 or 2", (unsigned long long)saved->gain_mode);
   }
   return check_est_params(rd, saved->est_param);
 }
@@ -489,6 +499,8 @@ hetinv_result_t hv_checkpoint_restore(hetinv_optimizer_t *opt, const unsigned ch
   opt->base = base;
   memcpy(opt->est_param, saved.est_param, sizeof opt->est_param);
   opt->verify_est_param = true;
+  opt->gain_mode = (hetinv_gain_mode_t)saved.gain_mode;
+  opt->verify_gain_mode = rd.has_geometry;
   opt->started = true;
   return HETINV_SUCCESS;
 }

@@ -61,6 +61,8 @@ struct hetinv_optimizer {
    * against the estimator a resumed run is given. */
   double est_param[HETINV_ESTIMATOR_PARAM_COUNT_];
   bool have_est_param, verify_est_param;
+  hetinv_gain_mode_t gain_mode; /* the estimator's, likewise (checkpoints of format 7 on) */
+  bool verify_gain_mode;
 
   /* Derived per stage (not saved: recomputed from the configuration). */
   /* lo_k, hi_k: each entry's box; move_lo_k, move_hi_k: the range its

@@ -151,8 +151,17 @@ static hetinv_result_t check_estimator(hetinv_optimizer_t *opt, const hetinv_est
     }
     opt->est_param[p] = v;
   }
+  hetinv_gain_mode_t mode = HETINV_GAIN_NONE;
+  hetinv_estimator_get_gain_mode(est, &mode);
+  if (opt->verify_gain_mode && mode != opt->gain_mode) {
+    static const char *const names[] = {"HETINV_GAIN_NONE", "HETINV_GAIN_GLOBAL", "HETINV_GAIN_PER_EMITTER"};
+    return HV_FAIL(opt->ctx, HETINV_ERROR_INVALID_ARGUMENT, "the estimator's gain mode is %s; the checkpointed run used %s",
+                   names[mode], names[opt->gain_mode]);
+  }
+  opt->gain_mode = mode;
   opt->have_est_param = true;
   opt->verify_est_param = false;
+  opt->verify_gain_mode = false;
   return HETINV_SUCCESS;
 }
 

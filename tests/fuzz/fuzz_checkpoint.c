@@ -180,7 +180,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   CHECK(ckpt != NULL);
   if (len) memcpy(ckpt, data + 1, len);
   if (len >= 8) {
-    uint64_t sum = hv_ckpt_fnv1a(HV_CKPT_FNV_OFFSET, ckpt, len - 8);
+    uint64_t sum = hv_fnv1a(HV_FNV_OFFSET, ckpt, len - 8);
     memcpy(ckpt + len - 8, &sum, 8);
   }
   hetinv_optimizer_t *opt = make_optimizer(c);

@@ -136,6 +136,24 @@ static void expect_refused(hetinv_optimizer_t *opt, const char *path, const char
   assert_int_equal(n, 0);
 }
 
+/* p's set (optimize_problem.c) with its first beam moved along x, holding
+ * p's values; *beam, which the set borrows, is destroyed after it. */
+static hetinv_measurements_t *moved_set(const problem_t *p, hetinv_emitter_t **beam) {
+  hetinv_measurements_t *set = NULL;
+  assert_ok(hetinv_measurements_create(p->ctx, &set));
+  assert_ok(hetinv_emitter_create_ideal(p->truth, (double[]){p->beam_x[0] + 0.125, 0.5, -1}, (double[]){0, 0, 1},
+                                        beam));
+  bool transmit = hetinv_measurements_row_count(p->set) == 2 * p->emitters;
+  for (int e = 0; e < p->emitters; ++e) {
+    const hetinv_emitter_t *emitter = e == 0 ? *beam : p->beams[e];
+    assert_ok(hetinv_measurements_add(set, emitter, p->reflect, p->pathlength, NULL));
+    if (transmit) assert_ok(hetinv_measurements_add(set, emitter, p->transmit, p->pathlength, NULL));
+  }
+  assert_int_equal(hetinv_measurements_value_count(set), p->count);
+  assert_ok(hetinv_measurements_set_values(set, hetinv_measurements_values(p->set), NULL, p->count));
+  return set;
+}
+
 static void resume_refuses_another_configuration(void **state) {
   const problem_t *p = *state;
   ht_tmpdir_create("optimizer-refuse");
@@ -219,8 +237,25 @@ static void resume_refuses_another_configuration(void **state) {
   expect_refused(opt, path, "seed");
   hetinv_optimizer_destroy(&opt);
   hetinv_context_destroy(&ctx2);
+  /* The same values under another geometry: the first beam moved. */
+  hetinv_emitter_t *beam = NULL;
+  hetinv_measurements_t *moved = moved_set(p, &beam);
+  assert_ok(hetinv_optimizer_create(p->ctx, moved, p->initial, &opt));
+  assert_ok(configure(opt, &s));
+  expect_refused(opt, path, "measurement geometry differs");
+  hetinv_optimizer_destroy(&opt);
+  hetinv_measurements_destroy(&moved);
+  hetinv_emitter_destroy(&beam);
 
-  /* The estimator's tunables are checked when the resumed run starts. */
+  /* The estimator's tunables and gain mode are checked when the resumed
+   * run starts. */
+  opt = make_optimizer(p, &s);
+  assert_ok(hetinv_optimizer_resume(opt, path));
+  assert_ok(hetinv_estimator_set_gain_mode(p->est, HETINV_GAIN_GLOBAL));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_run(opt, p->est, NULL));
+  assert_message_contains("gain mode is HETINV_GAIN_GLOBAL; the checkpointed run used HETINV_GAIN_NONE");
+  assert_ok(hetinv_estimator_set_gain_mode(p->est, HETINV_GAIN_NONE));
+  hetinv_optimizer_destroy(&opt);
   opt = make_optimizer(p, &s);
   assert_ok(hetinv_optimizer_resume(opt, path));
   assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_PHOTONS, 300));
@@ -319,7 +354,7 @@ static void damaged_checkpoints_are_refused(void **state) {
   /* An intact file of a later or an earlier format version is
    * unsupported, not corrupt. */
   memcpy(copy, data, len);
-  uint64_t version = 7;
+  uint64_t version = 1000;
   memcpy(copy + 16, &version, 8);
   sum = fnv1a64(copy, len - 8);
   memcpy(copy + len - 8, &sum, 8);
@@ -475,6 +510,7 @@ static void forged_checkpoints_are_refused(void **state) {
   assert_true(photons == 100);
   size_t est_photons = l.est + 8 * HETINV_ESTIMATOR_PHOTONS, sigma_s1 = l.grids + 4 * 8 + 8, sigma_a1 = l.grids + 8;
   size_t ring1 = l.ring + 8, ring2 = l.ring + 16;
+  size_t gain_mode = l.est + 8 * HETINV_ESTIMATOR_PARAM_COUNT_ + 4 * 8;
 
   const forgery_t forged[] = {
       {"the stage is 1", {&l.stage}, false, 1, 0},
@@ -507,6 +543,7 @@ static void forged_checkpoints_are_refused(void **state) {
       {"sigma_a of voxel 1 is 1e+223", {&sigma_a1}, true, 0, 1e223},
       {"HETINV_ESTIMATOR_PHOTONS is 0", {&est_photons}, true, 0, 0},
       {"HETINV_ESTIMATOR_PHOTONS is nan", {&est_photons}, true, 0, NaN},
+      {"the gain mode is 3; it must be 0, 1 or 2", {&gain_mode}, false, 3, 0},
   };
   int failures = 0;
   for (size_t i = 0; i < sizeof forged / sizeof forged[0]; ++i) {
@@ -601,22 +638,27 @@ static void forged_checkpoints_are_refused(void **state) {
   assert_int_equal(failures, 0);
 }
 
-/* The checkpoint at `data` rewritten in an older format: version 5 lacks
- * HETINV_OPTIMIZER_BOX_MARGIN in the fingerprint's tunables, version 4
+/* The checkpoint at `data` rewritten in an older format: version 6 lacks
+ * the set's geometry hash and the gain mode at the fingerprint's end,
+ * version 5 also HETINV_OPTIMIZER_BOX_MARGIN in its tunables, version 4
  * also HETINV_OPTIMIZER_MULTISCALE, version 3 also
  * HETINV_OPTIMIZER_SMOOTHNESS (the last of the list each time), version 2
  * also HETINV_ESTIMATOR_LOSS_CLIP in its estimator tunables (the last of
  * its list). Returns the new length. */
 static size_t older_format(const unsigned char *data, size_t len, uint64_t version, unsigned char *out) {
   layout_t l = coarse_layout(len);
-  int first = version == 5 ? HETINV_OPTIMIZER_BOX_MARGIN
+  int first = version == 6   ? HETINV_OPTIMIZER_PARAM_COUNT_
+              : version == 5 ? HETINV_OPTIMIZER_BOX_MARGIN
               : version == 4 ? HETINV_OPTIMIZER_MULTISCALE
                              : HETINV_OPTIMIZER_SMOOTHNESS; /* the first tunable it lacks */
-  size_t cut[2] = {24 + 8 * (4 + 3 * 64 + (size_t)first), l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP};
-  size_t bytes[2] = {8 * (size_t)(HETINV_OPTIMIZER_PARAM_COUNT_ - first), 8};
-  int cuts = version == 2 ? 2 : 1;
+  /* Cuts in increasing order: tunables, the estimator's LOSS_CLIP, and
+   * after the estimator's tunables and three hashes, the geometry hash and
+   * gain mode. */
+  size_t cut[3] = {24 + 8 * (4 + 3 * 64 + (size_t)first), l.est + 8 * HETINV_ESTIMATOR_LOSS_CLIP,
+                   l.est + 8 * HETINV_ESTIMATOR_PARAM_COUNT_ + 3 * 8};
+  size_t bytes[3] = {8 * (size_t)(HETINV_OPTIMIZER_PARAM_COUNT_ - first), version == 2 ? 8 : 0, 16};
   size_t n = 0, from = 0;
-  for (int c = 0; c < cuts; ++c) {
+  for (int c = 0; c < 3; ++c) {
     memcpy(out + n, data + from, cut[c] - from);
     n += cut[c] - from;
     from = cut[c] + bytes[c];
@@ -629,12 +671,13 @@ static size_t older_format(const unsigned char *data, size_t len, uint64_t versi
   return n;
 }
 
-/* Checkpoints of formats 2 to 5 (before HETINV_ESTIMATOR_LOSS_CLIP,
- * HETINV_OPTIMIZER_SMOOTHNESS, HETINV_OPTIMIZER_MULTISCALE and
- * HETINV_OPTIMIZER_BOX_MARGIN: tunables fewer in the fingerprint) resume
- * as least squares without a prior, a multi-scale step or a margin and
- * finish as the uninterrupted run; under a clipped loss (formats 2), a
- * prior (2, 3), a multi-scale step (2-4) or a margin they are refused. */
+/* Checkpoints of formats 2 to 6 (before HETINV_ESTIMATOR_LOSS_CLIP,
+ * HETINV_OPTIMIZER_SMOOTHNESS, HETINV_OPTIMIZER_MULTISCALE,
+ * HETINV_OPTIMIZER_BOX_MARGIN and the geometry hash: fewer fields in the
+ * fingerprint) resume as least squares without a prior, a multi-scale
+ * step or a margin and finish as the uninterrupted run; under a clipped
+ * loss (formats 2), a prior (2, 3), a multi-scale step (2-4) or a margin
+ * (2-5) they are refused; another geometry is not seen. */
 static void older_format_checkpoints_resume(void **state) {
   const problem_t *p = *state;
   ht_tmpdir_create("optimizer-older-formats");
@@ -649,7 +692,7 @@ static void older_format_checkpoints_resume(void **state) {
   assert_non_null(older);
   outcome_t *o = calloc(2, sizeof *o);
   reference_run(p, &s, 1, &o[0]);
-  for (uint64_t version = 2; version <= 5; ++version) {
+  for (uint64_t version = 2; version <= 6; ++version) {
     ht_write_file(old, older, older_format(data, len, version, older));
     resume_and_finish(p, &s, old, 4, &o[0], &o[1]);
     assert_same_outcome(&o[0], &o[1]);
@@ -675,6 +718,15 @@ static void older_format_checkpoints_resume(void **state) {
     assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_resume(opt, old));
     assert_message_contains("HETINV_OPTIMIZER_BOX_MARGIN is 0 in the checkpoint and 0.25 here");
     hetinv_optimizer_destroy(&opt);
+    /* Without a geometry hash or a gain mode, neither can be checked. */
+    hetinv_emitter_t *beam = NULL;
+    hetinv_measurements_t *moved = moved_set(p, &beam);
+    assert_ok(hetinv_optimizer_create(p->ctx, moved, p->initial, &opt));
+    assert_ok(configure(opt, &s));
+    assert_ok(hetinv_optimizer_resume(opt, old));
+    hetinv_optimizer_destroy(&opt);
+    hetinv_measurements_destroy(&moved);
+    hetinv_emitter_destroy(&beam);
   }
   free(o);
   free(older);
