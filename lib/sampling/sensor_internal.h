@@ -31,8 +31,9 @@ struct hetinv_sensor {
 
 /* A sensor of `kind` on `face` with data_size bytes of zeroed kind data
  * (s->data), for the create function of that kind; the face is checked.
- * The data must hold values, not pointers: a checkpoint compares its
- * bytes' hash across processes (estimator/set_hash.c). */
+ * The data must hold values, not pointers, and no padding (C leaves
+ * padding bytes unspecified after a member is stored): a checkpoint
+ * compares its bytes' hash across processes (estimator/set_hash.c). */
 hetinv_result_t hv_sensor_new(const hetinv_medium_t *medium, const struct hv_sensor_kind *kind,
                               hetinv_face_t face, size_t data_size, hetinv_sensor_t **out);
 

@@ -47,10 +47,6 @@ typedef struct ortho {
    * projected-area factor |cos| and the pixel area. */
   double connection_scale;
   double ballistic_scale; /* 1 / pixel area */
-  /* dir_in is the face's normal: every leg of a chain then keeps the
-   * vertex's place on the face (its other coordinates), so the vertex's
-   * pixel is known before any walk. */
-  bool normal;
   /* The pixels' extent from origin along the face's two axes, shrunk and
    * grown by a relative 1e-12: a vertex offset inside the first is on a
    * pixel, one outside the second on none, whatever the division in
@@ -63,8 +59,15 @@ typedef struct ortho {
    * reconstruction iteration's mispredicted branches. */
   int32_t pattern_count;
   uint8_t pattern[8];
+  /* dir_in is the face's normal: every leg of a chain then keeps the
+   * vertex's place on the face (its other coordinates), so the vertex's
+   * pixel is known before any walk. */
+  bool normal;
+  uint8_t unused[3]; /* never written: the record has no padding, whose bytes C leaves unspecified */
   double pattern_dir[8][3];
 } ortho_t;
+/* A checkpoint hashes the record's bytes (estimator/set_hash.c). */
+_Static_assert(sizeof(ortho_t) == 36 * sizeof(double) + 16, "ortho_t has no padding");
 
 /* hv_sensor_pixel_at(s, p) >= 0, exactly, without its two divisions
  * unless p lies within 1e-12 of the pixels' edge: the early test of every
