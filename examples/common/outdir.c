@@ -8,7 +8,9 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <stdbool.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -108,10 +110,18 @@ int outdir_open(outdir_t *dir, const char *prog, const char *path) {
       if (fcntl(fd, F_GETLK, &who) == 0 && who.l_type != F_UNLCK && who.l_pid > 0) {
         snprintf(pid, sizeof pid, " (process %ld)", (long)who.l_pid);
       }
+      /* Several copies of a program mpirun started (only hetinv-reconstruct
+       * runs as one job over ranks, and only its rank 0 takes the folder). */
+      const char *ranks = getenv("OMPI_COMM_WORLD_SIZE");
+      if (ranks == NULL) ranks = getenv("PMI_SIZE");
+      const bool mpirun = ranks != NULL && atoi(ranks) > 1;
       fprintf(stderr,
               "%s: %s: the output folder is in use by another run%s; wait for it to end or "
-              "choose another folder\n",
-              prog, path, pid);
+              "choose another folder%s\n",
+              prog, path, pid,
+              mpirun ? " (started by mpirun with several ranks? of the programs only hetinv-reconstruct "
+                       "uses MPI: run this one once, without mpirun)"
+                     : "");
     } else {
       fail(prog, path, "cannot lock the output folder (" OUTDIR_LOCK_NAME ")", err);
     }

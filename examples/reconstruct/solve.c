@@ -278,9 +278,14 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
   if (r == HETINV_SUCCESS) r = recon_estimator_configure(est, sc);
   hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  /* Under MPI the run and the gains' render are collective: a step that
+   * failed on one rank alone (above; rank 0's stage results below) is
+   * every rank's failure before them, or the others would wait for it. */
+  r = hetinv_context_agree(ctx, r);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_run(opt, est, &why);
   bool stage_failed = r == HETINV_SUCCESS && pl.failure[0] != '\0';
   if (stage_failed) r = HETINV_ERROR_IO;
+  r = hetinv_context_agree(ctx, r);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_result(opt, out);
   if (seconds) *seconds = pl.elapsed;
   if (stage_failed) {

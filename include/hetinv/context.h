@@ -135,6 +135,24 @@ HETINV_API int32_t hetinv_context_rank(const hetinv_context_t *ctx);
 HETINV_API int32_t hetinv_context_rank_count(const hetinv_context_t *ctx);
 
 /**
+ * @brief Make every rank learn whether any failed: collective over the
+ *        context's ranks (one rank: returns @p status).
+ *
+ * For a distributed program's own steps that one rank takes alone, such as
+ * rank 0 writing a file: every rank passes its status, and every rank
+ * returns the code of the first rank (in rank order) that failed, or
+ * HETINV_SUCCESS. A failing rank keeps its own message; the others record
+ * one naming it. Call it after such a step and before the next collective
+ * call (an estimator's render or gradient, an optimizer's run), or a rank
+ * that stopped alone leaves the others waiting for it forever.
+ * @param ctx the context.
+ * @param status this rank's result so far.
+ * @return the agreed result; HETINV_ERROR_NULL_ARGUMENT for a NULL context
+ *         (not collective); HETINV_ERROR_INTERNAL if MPI fails.
+ */
+HETINV_API hetinv_result_t hetinv_context_agree(const hetinv_context_t *ctx, hetinv_result_t status);
+
+/**
  * @brief Whether this library was built with MPI (-DHETINV_WITH_MPI=ON),
  *        i.e. whether hetinv/mpi.h and hetinv_context_set_mpi_comm() exist.
  * @return 1 with MPI, 0 without. Thread-safe.

@@ -18,9 +18,19 @@
  * and gradients, bitwise identical to a serial run with the same seed
  * whatever the rank count (see docs/mpi.md). These calls are collective:
  * every rank of the communicator must make them, in the same order, with
- * the same arguments (the same medium, set, map and cotangent), otherwise
- * ranks wait for each other forever. A failure on one rank (e.g. out of
- * memory) is reported by every rank with that rank's result code.
+ * the same arguments (the same medium, set, map and cotangent). Each call
+ * first compares, by one small reduction, a hash of what the ranks must
+ * share (the estimator's tunables and gain mode, the context's seed, the
+ * set's geometry, the medium's values, and the call's own arguments: the
+ * cotangent, the measured values of a loss gradient): where they differ,
+ * every rank fails with HETINV_ERROR_INVALID_ARGUMENT, instead of
+ * returning a mix. A failure on one rank (a bad argument, out of memory) is
+ * reported by every rank with that rank's result code. A rank that does
+ * not make the call at all still leaves the others waiting: a program's
+ * own steps that one rank takes alone (writing a file) are followed by
+ * hetinv_context_agree(). hetinv_optimizer_run() is collective too: its
+ * checkpoint (written by rank 0), its time budget (by each rank's clock)
+ * and its progress callback's stop are decided for all ranks at once.
  *
  * Threads: the library calls MPI only from the thread that calls the
  * estimator (or creates, sets up or destroys the context), never from its

@@ -20,6 +20,12 @@ HETINV_API int32_t hetinv_context_rank_count(const hetinv_context_t *ctx) {
   return ctx ? ctx->rank_count : 1;
 }
 
+HETINV_API hetinv_result_t hetinv_context_agree(const hetinv_context_t *ctx, hetinv_result_t status) {
+  HV_API_ENTER();
+  HV_CHECK_NULL(NULL, ctx);
+  return hv_comm_agree(ctx, status, 0, "nothing");
+}
+
 HETINV_API int hetinv_build_has_mpi(void) {
   HV_API_ENTER();
 #ifdef HETINV_WITH_MPI
@@ -38,6 +44,19 @@ hetinv_result_t hv_comm_context_init(hetinv_context_t *ctx) {
 }
 
 void hv_comm_context_release(hetinv_context_t *ctx) { (void)ctx; }
+
+hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t status, uint64_t key, const char *what) {
+  (void)ctx;
+  (void)key;
+  (void)what;
+  return status;
+}
+
+hetinv_result_t hv_comm_or(const hetinv_context_t *ctx, uint32_t *flags) {
+  (void)ctx;
+  (void)flags;
+  return HETINV_SUCCESS;
+}
 
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
                                   hetinv_result_t status, double **all, size_t *all_count) {
@@ -120,21 +139,41 @@ HETINV_API hetinv_result_t hetinv_context_set_mpi_comm(hetinv_context_t *ctx, MP
   return attach(ctx, comm);
 }
 
-/* Collective: the status of the first rank (in rank order) that failed,
- * HETINV_SUCCESS if none did. Ranks other than the failing one record a
- * message naming it; the failing rank keeps its own. */
-static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status) {
+hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t status, uint64_t key, const char *what) {
   int ranks = ctx->rank_count;
-  int mine = status != HETINV_SUCCESS ? ctx->rank : ranks, first = ranks;
-  int err = MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, ctx->comm);
+  if (ranks == 1) return status;
+  /* One reduction by maximum: ranks − (first failing rank), and the key
+   * and its complement, whose maxima equal a rank's own only if every
+   * rank's key is its own. */
+  uint64_t mine[3] = {status != HETINV_SUCCESS ? (uint64_t)(ranks - ctx->rank) : 0, key, ~key}, all[3];
+  int err = MPI_Allreduce(mine, all, 3, MPI_UINT64_T, MPI_MAX, ctx->comm);
   if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Allreduce", err);
-  if (first == ranks) return HETINV_SUCCESS;
-  int code = status;
-  err = MPI_Bcast(&code, 1, MPI_INT, first, ctx->comm);
-  if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Bcast", err);
-  if (status != HETINV_SUCCESS) return status;
-  return HV_FAIL(ctx, code, "rank %d of %d failed with %s (its own message says why)", first,
-                 ranks, hetinv_result_name(code));
+  if (all[0] != 0) {
+    int first = ranks - (int)all[0], code = status;
+    err = MPI_Bcast(&code, 1, MPI_INT, first, ctx->comm);
+    if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Bcast", err);
+    if (status != HETINV_SUCCESS) return status;
+    return HV_FAIL(ctx, code, "rank %d of %d failed with %s (its own message says why)", first, ranks,
+                   hetinv_result_name(code));
+  }
+  if (all[1] != key || all[2] != ~key) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "the %d ranks' calls differ in %s; every rank must pass the same", ranks, what);
+  }
+  return HETINV_SUCCESS;
+}
+
+hetinv_result_t hv_comm_or(const hetinv_context_t *ctx, uint32_t *flags) {
+  if (ctx->rank_count == 1) return HETINV_SUCCESS;
+  uint32_t all = 0;
+  int err = MPI_Allreduce(flags, &all, 1, MPI_UINT32_T, MPI_BOR, ctx->comm);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Allreduce", err);
+  *flags = all;
+  return HETINV_SUCCESS;
+}
+
+static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status) {
+  return hv_comm_agree(ctx, status, 0, "nothing");
 }
 
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,

@@ -25,6 +25,22 @@ static inline void hv_comm_block(int64_t n, int32_t rank, int32_t ranks, int64_t
   *hi = n * (rank + 1) / ranks;
 }
 
+/* Collective over the context's communicator when it has several ranks;
+ * with one rank it only returns `status`. Every rank passes its status so
+ * far and `key`, a hash of the arguments every rank must pass alike. Every
+ * rank returns the code of the first failing rank (in rank order): a
+ * failing rank keeps its own message, the others record one naming it. If
+ * none failed but the keys differ, every rank fails with
+ * HETINV_ERROR_INVALID_ARGUMENT naming `what` (the keys' content). A rank
+ * that fails before a collective must still come here, or the others wait
+ * for it forever. */
+hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t status, uint64_t key, const char *what);
+
+/* Collective like hv_comm_agree: *flags becomes the bitwise OR of every
+ * rank's flags (one rank: unchanged), so that a decision one rank takes
+ * (a stop) is taken by all. */
+hetinv_result_t hv_comm_or(const hetinv_context_t *ctx, uint32_t *flags);
+
 /* Collective over the context's communicator (only call with rank_count > 1).
  * Every rank contributes `count` doubles and its status so far. If every
  * status is HETINV_SUCCESS, *all receives the concatenation of every rank's

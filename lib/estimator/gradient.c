@@ -6,12 +6,14 @@
 #include "core/alloc.h"
 #include "core/comm.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "estimator/batches.h"
 #include "estimator/gain.h"
 #include "estimator/grad_scratch.h"
 #include "estimator/loss_term.h"
 #include "estimator/pass.h"
 #include "estimator/record.h"
+#include "estimator/set_hash.h"
 #include "hetinv/param.h"
 #include "param/param_map_internal.h"
 #include "medium/medium_internal.h"
@@ -278,8 +280,7 @@ HETINV_API hetinv_result_t hetinv_estimator_gradient(
   HV_API_ENTER();
   hv_pass_t pass;
   hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, &pass);
-  if (r != HETINV_SUCCESS) return r;
-  r = check_map(pass.ctx, map, medium, grad, grad_count);
+  if (r == HETINV_SUCCESS) r = check_map(pass.ctx, map, medium, grad, grad_count);
   if (r == HETINV_SUCCESS && cotangent == NULL) r = HV_FAIL(pass.ctx, HETINV_ERROR_NULL_ARGUMENT, "'cotangent' is NULL");
   for (size_t i = 0; r == HETINV_SUCCESS && i < count; ++i) {
     if (!isfinite(cotangent[i])) {
@@ -287,6 +288,14 @@ HETINV_API hetinv_result_t hetinv_estimator_gradient(
                   i, cotangent[i]);
     }
   }
+  /* The ranks' key: a gradient, its cotangent, its size, and whether the
+   * records hold the batch means (standard errors). */
+  uint64_t call = UINT64_C(0x47524144) + (grad_std_errors != NULL);
+  if (r == HETINV_SUCCESS && pass.ranks > 1) {
+    call = hv_fnv1a(call, &grad_count, sizeof grad_count);
+    call = hv_fnv1a_doubles(call, cotangent, count);
+  }
+  r = hv_pass_agree(estimator, medium, set, r, call);
   if (r == HETINV_SUCCESS) r = hv_gradient_run(&pass, map, cotangent, grad, grad_std_errors);
   hv_pass_end(&pass);
   return r;
@@ -299,10 +308,9 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
   if (estimator) estimator->gain_count = 0; /* a failed call leaves no stale gains */
   hv_pass_t pass;
   hetinv_result_t r = hv_pass_begin(estimator, medium, set, set ? set->value_count : 0, &pass);
-  if (r != HETINV_SUCCESS) return r;
   const hetinv_context_t *ctx = pass.ctx;
-  r = check_map(ctx, map, medium, grad, grad_count);
-  size_t n = set->value_count;
+  if (r == HETINV_SUCCESS) r = check_map(ctx, map, medium, grad, grad_count);
+  size_t n = r == HETINV_SUCCESS ? set->value_count : 0;
   double *values = r == HETINV_SUCCESS ? hv_calloc(ctx, n, sizeof(double)) : NULL;
   double *cot = r == HETINV_SUCCESS ? hv_calloc(ctx, n, sizeof(double)) : NULL;
   /* With a gain: the render's standard errors, for the gain's denominator. */
@@ -311,12 +319,21 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
   if (r == HETINV_SUCCESS && (values == NULL || cot == NULL || (gain && se == NULL))) {
     r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate %zu values", n);
   }
+  /* The ranks' key: a loss gradient, its size, and the measured values. */
+  uint64_t call = UINT64_C(0x4c4f5353);
+  if (r == HETINV_SUCCESS && pass.ranks > 1) {
+    uint64_t values_hash = hv_set_values_hash(set);
+    call = hv_fnv1a(call, &grad_count, sizeof grad_count);
+    call = hv_fnv1a(call, &values_hash, sizeof values_hash);
+  }
+  r = hv_pass_agree(estimator, medium, set, r, call);
   if (r == HETINV_SUCCESS) {
     /* I from stream s; the gradient from the independent stream s + 1. */
     r = hv_forward_run(estimator, &pass, values, se, NULL, n);
     double sum = 0.0;
     if (r == HETINV_SUCCESS && gain) {
       r = hv_gain_fit(estimator, &pass, set, values, se, cot, &sum);
+      r = hv_comm_agree(ctx, r, 0, "nothing"); /* the fit's allocation may fail on one rank */
     } else if (r == HETINV_SUCCESS) {
       const double clip = estimator->param[HETINV_ESTIMATOR_LOSS_CLIP];
       for (size_t i = 0; i < n; ++i) {
@@ -335,6 +352,6 @@ HETINV_API hetinv_result_t hetinv_estimator_loss_gradient(
   hv_free(ctx, cot);
   hv_free(ctx, se);
   hv_pass_end(&pass);
-  if (r != HETINV_SUCCESS) estimator->gain_count = 0;
+  if (r != HETINV_SUCCESS && estimator != NULL) estimator->gain_count = 0;
   return r;
 }

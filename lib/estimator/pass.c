@@ -10,7 +10,9 @@
 #include "core/comm.h"
 #include "core/context_internal.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "estimator/batches.h"
+#include "estimator/set_hash.h"
 #include "medium/medium_internal.h"
 #include "sampling/measurements_internal.h"
 #include "transport/lanes.h"
@@ -79,6 +81,7 @@ static void copy_grid_per_thread(hv_pass_t *pass) {
 
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
                               const hetinv_measurements_t *set, size_t count, hv_pass_t *pass) {
+  *pass = (hv_pass_t){0};
   if (est == NULL) return HV_FAIL(NULL, HETINV_ERROR_NULL_ARGUMENT, "'estimator' is NULL");
   const hetinv_context_t *ctx = est->ctx;
   if (medium == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'medium' is NULL");
@@ -155,6 +158,25 @@ int hv_pass_slot_count(const hv_pass_t *pass, size_t bytes_per_slot, int *thread
   *threads = pass->threads < s ? pass->threads : (int)s;
   if (*threads < 1) *threads = 1;
   return (int)s;
+}
+
+hetinv_result_t hv_pass_agree(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
+                              const hetinv_measurements_t *set, hetinv_result_t status, uint64_t call) {
+  if (est == NULL || est->ctx->rank_count == 1) return status; /* no context to agree over, or nobody */
+  uint64_t key = 0;
+  if (status == HETINV_SUCCESS) { /* then medium and set are valid */
+    key = hv_fnv1a(HV_FNV_OFFSET, est->param, sizeof est->param);
+    key = hv_fnv1a(key, &est->gain_mode, sizeof est->gain_mode);
+    key = hv_fnv1a(key, &est->ctx->seed, sizeof est->ctx->seed);
+    uint64_t geometry = hv_set_geometry_hash(set);
+    key = hv_fnv1a(key, &geometry, sizeof geometry);
+    size_t voxels = hetinv_medium_voxel_count(medium);
+    for (int p = 0; p < HETINV_PARAM_COUNT; ++p) key = hv_fnv1a_doubles(key, hetinv_medium_grid(medium, p), voxels);
+    key = hv_fnv1a(key, &call, sizeof call);
+  }
+  return hv_comm_agree(est->ctx, status, key,
+                       "the estimator's tunables or gain mode, the context's seed, the measurement set's geometry, "
+                       "the medium, or the call's own arguments");
 }
 
 void hv_pass_end(hv_pass_t *pass) {

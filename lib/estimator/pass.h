@@ -32,10 +32,25 @@ typedef struct hv_pass {
 } hv_pass_t;
 
 /* Validates (estimator, medium, set, count) and builds the pass; on failure
- * nothing needs releasing. */
+ * the pass is empty: nothing needs releasing, and hv_pass_end is a no-op. */
 hetinv_result_t hv_pass_begin(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
                               const hetinv_measurements_t *set, size_t count, hv_pass_t *pass);
 void hv_pass_end(hv_pass_t *pass);
+
+/* Collective when the estimator's context has several ranks (one rank:
+ * returns status): every rank of a render, gradient or loss-gradient call
+ * comes here after hv_pass_begin and its own checks and allocations, with
+ * its status so far, before its first other collective; `call` hashes the
+ * call's own arguments every rank must pass alike (its kind, cotangent,
+ * ...). All ranks then fail alike, naming the failing rank, or, when the
+ * estimator's tunables, the context's seed, the set's geometry, the medium
+ * or `call` differ between ranks, with INVALID_ARGUMENT. Without this a
+ * rank that failed alone left the others waiting forever, and ranks given
+ * different photon counts or media returned mixed results. The pass may
+ * have failed to begin (then it is empty); hv_pass_end releases it either
+ * way. */
+hetinv_result_t hv_pass_agree(const hetinv_estimator_t *est, const hetinv_medium_t *medium,
+                              const hetinv_measurements_t *set, hetinv_result_t status, uint64_t call);
 
 /* Traces batch b's photons [hv_batch_begin(b), hv_batch_begin(b+1)) of
  * plan (emitter) e into tally. */

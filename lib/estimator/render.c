@@ -132,13 +132,15 @@ static hetinv_result_t share(forward_t *f, bool with_ballistic, hetinv_result_t 
   hv_record_release(&rec);
   /* Rank blocks are contiguous and in rank order: the records of every
    * emitter, in emitter order. */
-  for (int32_t e = 0; r == HETINV_SUCCESS && e < pass->plans.count; ++e) {
+  bool fits = true; /* every emitter's records are there, not fewer (nor more: below) */
+  for (int32_t e = 0; r == HETINV_SUCCESS && fits && e < pass->plans.count; ++e) {
     const hv_plan_t *plan = &pass->plans.plan[e];
     size_t need = 3 * HV_STAT_COUNT;
     for (int32_t i = 0; i < plan->range_count; ++i) {
       need += (plan->range_hi[i] - plan->range_lo[i]) * per_value;
     }
-    if (all_count - at < need) break;
+    fits = all_count - at >= need;
+    if (!fits) break;
     for (int32_t i = 0; i < plan->range_count; ++i) {
       for (size_t k = plan->range_lo[i]; k < plan->range_hi[i]; ++k) {
         f->total[k] = all[at++];
@@ -153,7 +155,7 @@ static hetinv_result_t share(forward_t *f, bool with_ballistic, hetinv_result_t 
       f->stats_mean_sq[e][s] = all[at++];
     }
   }
-  if (r == HETINV_SUCCESS && at != all_count) {
+  if (r == HETINV_SUCCESS && (!fits || at != all_count)) {
     r = HV_FAIL(ctx, HETINV_ERROR_INTERNAL,
                 "the ranks' partial sums hold %zu doubles, which do not match the rows of the %d "
                 "emitters", all_count, (int)pass->plans.count);
@@ -229,12 +231,12 @@ HETINV_API hetinv_result_t hetinv_estimator_render(hetinv_estimator_t *estimator
   HV_API_ENTER();
   hv_pass_t pass;
   hetinv_result_t r = hv_pass_begin(estimator, medium, set, count, &pass);
-  if (r != HETINV_SUCCESS) return r;
-  if (values == NULL) {
-    r = HV_FAIL(pass.ctx, HETINV_ERROR_NULL_ARGUMENT, "'values' is NULL");
-  } else {
-    r = hv_forward_run(estimator, &pass, values, std_errors, ballistic, count);
-  }
+  if (r == HETINV_SUCCESS && values == NULL) r = HV_FAIL(pass.ctx, HETINV_ERROR_NULL_ARGUMENT, "'values' is NULL");
+  /* The call's own part of the ranks' key: a render, and whether it
+   * gathers ballistic light (which the ranks' records hold). */
+  const uint64_t call = ballistic != NULL ? UINT64_C(0x52454e4442) : UINT64_C(0x52454e44);
+  r = hv_pass_agree(estimator, medium, set, r, call);
+  if (r == HETINV_SUCCESS) r = hv_forward_run(estimator, &pass, values, std_errors, ballistic, count);
   hv_pass_end(&pass);
   return r;
 }

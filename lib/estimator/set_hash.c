@@ -1,9 +1,10 @@
-/* The forward model a measurement set is rendered under, hashed: the box
- * and interface, and per row its emitter, sensor and pathlength bins with
- * every number that shapes the rendered values. An optimizer checkpoint
- * stores it, so a resume under another geometry is refused (the measured
- * values alone may match). Here, not in lib/sampling, because a sensor's
- * kind is named by its hooks (transport/sensor_kind.h). */
+/* A measurement set hashed. Its geometry: the forward model it is rendered
+ * under (the box and interface, and per row its emitter, sensor and
+ * pathlength bins with every number that shapes the rendered values), so
+ * that a resume under another geometry is refused (the measured values
+ * alone may match); and its values. Optimizer checkpoints store both, and
+ * the ranks of a collective call compare them. Here, not in lib/sampling,
+ * because a sensor's kind is named by its hooks (transport/sensor_kind.h). */
 #include <string.h>
 
 #include "core/hash.h"
@@ -65,6 +66,24 @@ static uint64_t hash_pathlength(uint64_t h, const hetinv_pathlength_t *p) {
   h = HASH(h, p->taps);
   h = HASH_ARRAY(h, p->tap_offset, p->taps);
   return HASH_ARRAY(h, p->tap_weight, p->taps);
+}
+
+uint64_t hv_set_values_hash(const hetinv_measurements_t *set) {
+  uint64_t h = HV_FNV_OFFSET;
+  size_t n = set->value_count;
+  h = hv_fnv1a(h, set->values, n * sizeof(double));
+  h = hv_fnv1a(h, set->weights, n * sizeof(double));
+  h = hv_fnv1a(h, set->mask, n);
+  /* The clip's scales join the hash only where one differs from 1, so a
+   * set without them hashes as before they existed (checkpoints store it). */
+  for (size_t i = 0; i < n; ++i) {
+    if (set->clip_below[i] == 1.0 && set->clip_above[i] == 1.0) continue;
+    uint64_t at = i;
+    h = hv_fnv1a(h, &at, sizeof at);
+    h = hv_fnv1a(h, &set->clip_below[i], sizeof(double));
+    h = hv_fnv1a(h, &set->clip_above[i], sizeof(double));
+  }
+  return h;
 }
 
 uint64_t hv_set_geometry_hash(const hetinv_measurements_t *set) {

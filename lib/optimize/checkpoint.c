@@ -93,22 +93,8 @@ void hv_ckpt_fingerprint(const hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *f
   memcpy(f->lo, opt->lo, sizeof f->lo);
   memcpy(f->hi, opt->hi, sizeof f->hi);
   memcpy(f->est_param, opt->est_param, sizeof f->est_param);
+  f->set_hash = hv_set_values_hash(set);
   uint64_t h = HV_FNV_OFFSET;
-  size_t n = set->value_count;
-  h = hv_fnv1a(h, set->values, n * sizeof(double));
-  h = hv_fnv1a(h, set->weights, n * sizeof(double));
-  h = hv_fnv1a(h, set->mask, n);
-  /* The clip's scales join the hash only where one differs from 1, so a
-   * set without them hashes as before they existed. */
-  for (size_t i = 0; i < n; ++i) {
-    if (set->clip_below[i] == 1.0 && set->clip_above[i] == 1.0) continue;
-    uint64_t at = i;
-    h = hv_fnv1a(h, &at, sizeof at);
-    h = hv_fnv1a(h, &set->clip_below[i], sizeof(double));
-    h = hv_fnv1a(h, &set->clip_above[i], sizeof(double));
-  }
-  f->set_hash = h;
-  h = HV_FNV_OFFSET;
   size_t v = hetinv_medium_voxel_count(opt->initial);
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) h = hv_fnv1a(h, hetinv_medium_grid(opt->initial, p), v * sizeof(double));
   f->medium_hash = h;

@@ -5,6 +5,7 @@
 #include <time.h>
 
 #include "core/alloc.h"
+#include "core/comm.h"
 #include "core/error.h"
 #include "estimator/estimator_internal.h"
 #include "optimize/optimizer_internal.h"
@@ -89,12 +90,16 @@ static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est,
 
   hetinv_measurements_t *sub = NULL;
   hetinv_medium_t *medium = NULL;
-  hetinv_result_t r = hv_minibatch_set(opt, picked, size, st->value_mask, &sub);
+  hetinv_result_t r = reserve_loss(opt);
+  if (r == HETINV_SUCCESS) r = hv_minibatch_set(opt, picked, size, st->value_mask, &sub);
   if (r == HETINV_SUCCESS) r = hetinv_medium_clone(opt->base, &medium);
   if (r == HETINV_SUCCESS) r = hetinv_param_map_apply(st->map, opt->pi, opt->k, medium);
   if (r == HETINV_SUCCESS) r = hetinv_medium_commit(medium);
   /* Epoch 0 is left to the caller's own renders (e.g. simulated data). */
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_EPOCH, (double)(opt->iteration + 1));
+  /* Under MPI a rank that failed above must not leave the others waiting
+   * in the loss gradient's collectives. */
+  r = hv_comm_agree(opt->ctx, r, 0, "nothing");
   if (r == HETINV_SUCCESS) r = hetinv_estimator_loss_gradient(est, medium, sub, st->map, loss, NULL, opt->grad, opt->k);
   hetinv_measurements_destroy(&sub);
   hetinv_medium_destroy(&medium);
@@ -114,6 +119,9 @@ static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est,
   if (opt->ring_count < opt->window) ++opt->ring_count;
   return HETINV_SUCCESS;
 }
+
+/* Why the ranks stop after an iteration (bits OR-ed over the ranks). */
+enum { STOP_CALLBACK = 1u, STOP_BUDGET = 2u };
 
 static int64_t total_iterations(const hetinv_optimizer_t *opt) {
   int64_t n = 0;
@@ -173,49 +181,65 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
   hetinv_optimizer_t *opt = optimizer;
   const hetinv_context_t *ctx = opt->ctx;
   if (reason) *reason = HETINV_STOP_NONE;
-  HV_CHECK_NULL(ctx, estimator);
-  if (opt->stage_count == 0) {
-    return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "the schedule has no stage: call hetinv_optimizer_add_stage() first");
+  /* Under MPI every rank runs this loop in step: a failure on one rank is
+   * agreed (hv_comm_agree) before the next collective, and stops by the
+   * budget or the callback are taken by all (hv_comm_or). */
+  hetinv_result_t r = HETINV_SUCCESS;
+  if (estimator == NULL) {
+    r = HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'estimator' is NULL");
+  } else if (opt->stage_count == 0) {
+    r = HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE, "the schedule has no stage: call hetinv_optimizer_add_stage() first");
   }
-  hetinv_result_t r = opt->started ? HETINV_SUCCESS : start(opt);
-  if (r != HETINV_SUCCESS) return r;
-
-  r = check_estimator(opt, estimator);
-  if (r != HETINV_SUCCESS) return r;
+  if (r == HETINV_SUCCESS && !opt->started) r = start(opt);
+  if (r == HETINV_SUCCESS) r = check_estimator(opt, estimator);
   double epoch = 0.0;
-  hetinv_estimator_get_param(estimator, HETINV_ESTIMATOR_EPOCH, &epoch);
+  if (r == HETINV_SUCCESS) hetinv_estimator_get_param(estimator, HETINV_ESTIMATOR_EPOCH, &epoch);
   int32_t groups = opt->groups.count;
-  int32_t *picked = hv_calloc(ctx, (size_t)groups, sizeof(int32_t));
-  int32_t *scratch = hv_calloc(ctx, (size_t)groups, sizeof(int32_t));
-  if (picked == NULL || scratch == NULL) r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the minibatch");
+  int32_t *picked = r == HETINV_SUCCESS ? hv_calloc(ctx, (size_t)groups, sizeof(int32_t)) : NULL;
+  int32_t *scratch = r == HETINV_SUCCESS ? hv_calloc(ctx, (size_t)groups, sizeof(int32_t)) : NULL;
+  if (r == HETINV_SUCCESS && (picked == NULL || scratch == NULL)) {
+    r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the minibatch");
+  }
+  r = hv_comm_agree(ctx, r, 0, "nothing");
+  if (r != HETINV_SUCCESS) {
+    hv_free(ctx, picked);
+    hv_free(ctx, scratch);
+    return r;
+  }
 
   double budget = opt->param[HETINV_OPTIMIZER_TIME_BUDGET];
   int64_t interval = (int64_t)opt->param[HETINV_OPTIMIZER_CHECKPOINT_INTERVAL];
   hetinv_stop_reason_t why = HETINV_STOP_NONE;
+  bool over_budget = false;
   while (r == HETINV_SUCCESS && why == HETINV_STOP_NONE) {
     if (stage_done(opt)) {
       if (opt->stage + 1 == opt->stage_count) {
         why = HETINV_STOP_COMPLETED;
         break;
       }
-      r = next_stage(opt);
+      r = hv_comm_agree(ctx, next_stage(opt), 0, "nothing");
       continue;
     }
-    if (budget > 0.0 && opt->elapsed >= budget) {
+    /* Past the budget by some rank's clock after the last iteration (the
+     * ranks' clocks differ), or, before the first, by the elapsed time a
+     * resumed run starts from, the checkpoint's on every rank. Tested after
+     * the stage's end, so a run that completes its schedule says so. */
+    if (over_budget || (budget > 0.0 && opt->elapsed >= budget)) {
       why = HETINV_STOP_TIME_BUDGET;
       break;
     }
     double t0 = now_seconds(), loss = 0.0, step = 0.0;
-    r = reserve_loss(opt);
-    if (r == HETINV_SUCCESS) r = iterate(opt, estimator, picked, scratch, &loss, &step);
+    r = iterate(opt, estimator, picked, scratch, &loss, &step);
     if (r != HETINV_SUCCESS) break;
     opt->elapsed += now_seconds() - t0;
     ++opt->stage_iteration;
     ++opt->iteration;
     opt->losses[opt->loss_count++] = loss;
     if (opt->checkpoint_path && opt->iteration % interval == 0) {
-      r = hv_checkpoint_write(opt, opt->checkpoint_path);
+      /* Rank 0 writes; every rank learns whether it could. */
+      r = hv_comm_agree(ctx, hv_checkpoint_write(opt, opt->checkpoint_path), 0, "nothing");
     }
+    uint32_t stop = budget > 0.0 && opt->elapsed >= budget ? STOP_BUDGET : 0;
     if (r == HETINV_SUCCESS && opt->progress) {
       hetinv_progress_t p = {
           .size = sizeof p,
@@ -230,11 +254,18 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
           .elapsed = opt->elapsed,
       };
       const char *entry = hv_api_suspend();
-      if (opt->progress(&p, opt->user) != 0) why = HETINV_STOP_CALLBACK;
+      if (opt->progress(&p, opt->user) != 0) stop |= STOP_CALLBACK;
       hv_api_resume(entry);
     }
+    /* A stop one rank asks for (its callback; its clock past the budget,
+     * as the ranks' clocks differ) is every rank's. */
+    if (r == HETINV_SUCCESS) r = hv_comm_or(ctx, &stop);
+    if (stop & STOP_CALLBACK) why = HETINV_STOP_CALLBACK;
+    over_budget = (stop & STOP_BUDGET) != 0;
   }
-  if (r == HETINV_SUCCESS && opt->checkpoint_path) r = hv_checkpoint_write(opt, opt->checkpoint_path);
+  if (r == HETINV_SUCCESS && opt->checkpoint_path) {
+    r = hv_comm_agree(ctx, hv_checkpoint_write(opt, opt->checkpoint_path), 0, "nothing");
+  }
   hetinv_estimator_set_param(estimator, HETINV_ESTIMATOR_EPOCH, epoch);
   hv_free(ctx, picked);
   hv_free(ctx, scratch);

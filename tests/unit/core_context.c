@@ -28,7 +28,8 @@ static void initialiser_sets_threads_and_seed(void **state) {
 }
 
 /* Without MPI running (this test never initialises it) a context is
- * rank 0 of 1 in either build; NULL gives the same. */
+ * rank 0 of 1 in either build; NULL gives the same; its agreement is its
+ * own status. */
 static void context_without_mpi_is_rank_zero_of_one(void **state) {
   (void)state;
   hetinv_context_t *ctx = NULL;
@@ -37,6 +38,9 @@ static void context_without_mpi_is_rank_zero_of_one(void **state) {
   assert_int_equal(hetinv_context_rank_count(ctx), 1);
   assert_int_equal(hetinv_context_rank(NULL), 0);
   assert_int_equal(hetinv_context_rank_count(NULL), 1);
+  /* One rank agrees with itself: its own status comes back. */
+  assert_int_equal(hetinv_context_agree(ctx, HETINV_SUCCESS), HETINV_SUCCESS);
+  assert_int_equal(hetinv_context_agree(ctx, HETINV_ERROR_IO), HETINV_ERROR_IO);
   int has = hetinv_build_has_mpi();
   assert_true(has == 0 || has == 1);
   hetinv_context_destroy(&ctx);

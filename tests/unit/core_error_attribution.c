@@ -204,6 +204,7 @@ static void test_context_medium_and_sampling(fixture_t *f) {
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.thread_count = -3;
   EXPECT_FAIL(hetinv_context_create, (&init, &no_ctx));
+  EXPECT_FAIL(hetinv_context_agree, (NULL, HETINV_SUCCESS));
 
   hetinv_medium_t *m = NULL;
   EXPECT_FAIL(hetinv_medium_create, (ctx, box_min, box_max, (int32_t[]){0, 1, 1}, &m));

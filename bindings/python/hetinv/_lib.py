@@ -48,6 +48,7 @@ PROTOTYPES = {
     "hetinv_context_seed": (_u64, [_vp]),
     "hetinv_context_rank": (_i32, [_vp]),
     "hetinv_context_rank_count": (_i32, [_vp]),
+    "hetinv_context_agree": (_R, [_vp, _R]),
     "hetinv_build_has_mpi": (ctypes.c_int, []),
     "hetinv_context_last_error_message": (_cp, [_vp]),
     "hetinv_context_last_error_code": (_R, [_vp]),
