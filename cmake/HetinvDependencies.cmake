@@ -45,10 +45,17 @@ if(HETINV_WITH_MPI)
     hetinv_missing("MPI for C (because HETINV_WITH_MPI is ON; or -DHETINV_WITH_MPI=OFF)"
                    "libopenmpi-dev openmpi-bin")
   endif()
-  # The mpi test runs programs under mpirun.
+  # The mpi tests run programs under mpirun.
   if(HETINV_BUILD_TESTS AND NOT MPIEXEC_EXECUTABLE)
     hetinv_missing("mpirun (for the mpi tests; or -DHETINV_BUILD_TESTS=OFF)" "openmpi-bin")
   endif()
+  # Their environment (tests/mpi, examples): mpirun refuses root unless told
+  # twice; passive OpenMP waits keep oversubscribed ranks (4 ranks x 2
+  # threads on a small machine) from spinning; a hung job is ended by
+  # mpirun itself (MPIEXEC_TIMEOUT, before a test's TIMEOUT), which takes
+  # its ranks with it: killed by CTest, mpirun could leave a rank spinning.
+  set(HETINV_MPI_TEST_ENV OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+      OMP_WAIT_POLICY=passive MPIEXEC_TIMEOUT=100)
 endif()
 
 if(HETINV_BUILD_TESTS)

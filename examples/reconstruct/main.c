@@ -397,10 +397,36 @@ static int run(int argc, char **argv, outdir_t *dir) {
   return status;
 }
 
+#ifdef HETINV_RECONSTRUCT_MPI
+/* Every rank must run the same command (mpirun's "A : B" form can give
+ * them others): a usage error on one rank alone, or other iterations or
+ * photons, would leave the others waiting or mix two runs. Compared by an
+ * FNV-1a hash of the arguments, its maximum and its complement's over the
+ * ranks. */
+static bool same_command_line(int argc, char **argv) {
+  unsigned long long h = 14695981039346656037ULL;
+  for (int i = 1; i < argc; ++i) {
+    for (const char *c = argv[i];; ++c) {
+      h = (h ^ (unsigned char)*c) * 1099511628211ULL;
+      if (*c == '\0') break;
+    }
+  }
+  unsigned long long mine[2] = {h, ~h}, all[2] = {0, 0};
+  MPI_Allreduce(mine, all, 2, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
+  return all[0] == mine[0] && all[1] == mine[1];
+}
+#endif
+
 int main(int argc, char **argv) {
 #ifdef HETINV_RECONSTRUCT_MPI
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+  if (!same_command_line(argc, argv)) {
+    fprintf(stderr, "hetinv-reconstruct: the MPI ranks were given different arguments; every rank must run "
+                    "the same command\n");
+    MPI_Finalize();
+    return 2;
+  }
 #endif
   outdir_t dir = {-1};
   int status = run(argc, argv, &dir);
