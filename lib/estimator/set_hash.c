@@ -43,8 +43,9 @@ static uint64_t hash_emitter(uint64_t h, const hetinv_emitter_t *e) {
   return HASH(h, e->pattern_height);
 }
 
-/* The kind's data was zeroed at creation, padding included, so its bytes
- * are a function of what it was created from. */
+/* The kind's name, what every sensor has, and what the kind's hook adds
+ * (what the sensor was made from, not its derived record, whose layout a
+ * later version may change). */
 static uint64_t hash_sensor(uint64_t h, const hetinv_sensor_t *s) {
   h = hv_fnv1a(h, s->kind->name, strlen(s->kind->name) + 1);
   h = HASH(h, s->face);
@@ -52,7 +53,7 @@ static uint64_t hash_sensor(uint64_t h, const hetinv_sensor_t *s) {
   h = HASH(h, s->height);
   h = HASH(h, s->origin);
   h = HASH(h, s->pixel_size);
-  return s->data ? hv_fnv1a(h, s->data, s->data_size) : h;
+  return s->kind->fingerprint ? s->kind->fingerprint(s, h) : h;
 }
 
 static uint64_t hash_pathlength(uint64_t h, const hetinv_pathlength_t *p) {

@@ -29,7 +29,6 @@ hetinv_result_t hv_sensor_new(const hetinv_medium_t *medium, const struct hv_sen
   s->kind = kind;
   s->face = face;
   s->data = data_size > 0 ? (char *)s + head : NULL;
-  s->data_size = data_size;
   *out = s;
   return HETINV_SUCCESS;
 }

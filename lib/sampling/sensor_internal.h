@@ -25,15 +25,11 @@ struct hetinv_sensor {
   /* Each pixel sees one direction (an image of the face, as a camera's):
    * layer-wise stages may treat its pixels as points (optimize/layerwise.c). */
   bool images;
-  void *data;       /* the kind's own data, allocated with the sensor (zeroed, padding too) */
-  size_t data_size; /* its bytes: hv_set_geometry_hash() hashes them */
+  void *data; /* the kind's own data, allocated with the sensor */
 };
 
 /* A sensor of `kind` on `face` with data_size bytes of zeroed kind data
- * (s->data), for the create function of that kind; the face is checked.
- * The data must hold values, not pointers, and no padding (C leaves
- * padding bytes unspecified after a member is stored): a checkpoint
- * compares its bytes' hash across processes (estimator/set_hash.c). */
+ * (s->data), for the create function of that kind; the face is checked. */
 hetinv_result_t hv_sensor_new(const hetinv_medium_t *medium, const struct hv_sensor_kind *kind,
                               hetinv_face_t face, size_t data_size, hetinv_sensor_t **out);
 

@@ -10,6 +10,7 @@
 #include "core/bits.h"
 #include "core/compiler.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "medium/fresnel.h"
 #include "medium/medium_internal.h"
 #include "sampling/sensor_internal.h"
@@ -47,6 +48,10 @@ typedef struct ortho {
    * projected-area factor |cos| and the pixel area. */
   double connection_scale;
   double ballistic_scale; /* 1 / pixel area */
+  /* dir_in is the face's normal: every leg of a chain then keeps the
+   * vertex's place on the face (its other coordinates), so the vertex's
+   * pixel is known before any walk. */
+  bool normal;
   /* The pixels' extent from origin along the face's two axes, shrunk and
    * grown by a relative 1e-12: a vertex offset inside the first is on a
    * pixel, one outside the second on none, whatever the division in
@@ -59,15 +64,8 @@ typedef struct ortho {
    * reconstruction iteration's mispredicted branches. */
   int32_t pattern_count;
   uint8_t pattern[8];
-  /* dir_in is the face's normal: every leg of a chain then keeps the
-   * vertex's place on the face (its other coordinates), so the vertex's
-   * pixel is known before any walk. */
-  bool normal;
-  uint8_t unused[3]; /* never written: the record has no padding, whose bytes C leaves unspecified */
   double pattern_dir[8][3];
 } ortho_t;
-/* A checkpoint hashes the record's bytes (estimator/set_hash.c). */
-_Static_assert(sizeof(ortho_t) == 36 * sizeof(double) + 16, "ortho_t has no padding");
 
 /* hv_sensor_pixel_at(s, p) >= 0, exactly, without its two divisions
  * unless p lies within 1e-12 of the pixels' edge: the early test of every
@@ -204,8 +202,19 @@ static uint32_t axis_walks(const hetinv_sensor_t *s) {
   return o->normal ? 3u << (2 * hv_face_axis(s->face)) : 0u;
 }
 
-static const hv_sensor_kind_t ORTHOGRAPHIC = {
-    .name = "orthographic", .prepare = prepare, .at_vertex = at_vertex, .at_exit = at_exit, .axis_walks = axis_walks};
+/* The direction it was made for (normalised): the rest of its data follows
+ * from it and the grid. */
+static uint64_t fingerprint(const hetinv_sensor_t *s, uint64_t h) {
+  const ortho_t *o = s->data;
+  return hv_fnv1a(h, o->dir_out, sizeof o->dir_out);
+}
+
+static const hv_sensor_kind_t ORTHOGRAPHIC = {.name = "orthographic",
+                                              .prepare = prepare,
+                                              .at_vertex = at_vertex,
+                                              .at_exit = at_exit,
+                                              .axis_walks = axis_walks,
+                                              .fingerprint = fingerprint};
 
 /* The interior direction that refracts into dir_out, and the factors of a
  * next-event connection along it. */

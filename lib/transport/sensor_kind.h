@@ -49,6 +49,12 @@ struct hv_sensor_kind {
    * (hv_ray_to_boundary): the render then tabulates the optical depth
    * along them (hv_grid_build_axis_depths). NULL: none. */
   uint32_t (*axis_walks)(const hetinv_sensor_t *s);
+  /* Continues the FNV-1a hash h (core/hash.h) over what the sensor was made
+   * from beyond what every sensor has (face, pixel grid): its arguments,
+   * not its derived data. Optimizer checkpoints store the hash
+   * (estimator/set_hash.c), so the same arguments must hash alike in every
+   * library version. NULL: nothing more. */
+  uint64_t (*fingerprint)(const hetinv_sensor_t *s, uint64_t h);
 };
 
 #endif

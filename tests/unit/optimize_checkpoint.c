@@ -246,6 +246,25 @@ static void resume_refuses_another_configuration(void **state) {
   hetinv_optimizer_destroy(&opt);
   hetinv_measurements_destroy(&moved);
   hetinv_emitter_destroy(&beam);
+  /* ...or the reflection camera tilted (its kind's own fingerprint). */
+  hetinv_sensor_t *tilted = NULL;
+  const double *pixel = p->dims[0] == 3 ? (double[]){1.0 / 3, 1} : (double[]){0.5, 1};
+  assert_ok(hetinv_sensor_create_orthographic(p->truth, HETINV_FACE_Z_MIN, (double[]){0.1, 0, -1}, (double[]){0, 0},
+                                              pixel, p->dims[0] == 3 ? 3 : 2, 1, &tilted));
+  assert_ok(hetinv_measurements_create(p->ctx, &moved));
+  for (int e = 0; e < p->emitters; ++e) {
+    assert_ok(hetinv_measurements_add(moved, p->beams[e], tilted, p->pathlength, NULL));
+    if (hetinv_measurements_row_count(p->set) == 2 * p->emitters) {
+      assert_ok(hetinv_measurements_add(moved, p->beams[e], p->transmit, p->pathlength, NULL));
+    }
+  }
+  assert_ok(hetinv_measurements_set_values(moved, hetinv_measurements_values(p->set), NULL, p->count));
+  assert_ok(hetinv_optimizer_create(p->ctx, moved, p->initial, &opt));
+  assert_ok(configure(opt, &s));
+  expect_refused(opt, path, "measurement geometry differs");
+  hetinv_optimizer_destroy(&opt);
+  hetinv_measurements_destroy(&moved);
+  hetinv_sensor_destroy(&tilted);
 
   /* The estimator's tunables and gain mode are checked when the resumed
    * run starts. */
