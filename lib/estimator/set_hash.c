@@ -3,8 +3,12 @@
  * pathlength bins with every number that shapes the rendered values), so
  * that a resume under another geometry is refused (the measured values
  * alone may match); and its values. Optimizer checkpoints store both, and
- * the ranks of a collective call compare them. Here, not in lib/sampling,
- * because a sensor's kind is named by its hooks (transport/sensor_kind.h). */
+ * the ranks of a collective call compare them. The numbers hashed are the
+ * objects' normalised arguments (entry points, weights, bin centres), so a
+ * version that derived them otherwise would refuse older checkpoints as
+ * another geometry: such a change needs a new checkpoint format. Here, not
+ * in lib/sampling, because a sensor's kind is named, and hashes its own
+ * arguments, by its hooks (transport/sensor_kind.h). */
 #include <string.h>
 
 #include "core/hash.h"
