@@ -61,6 +61,12 @@ int recon_parse_folder(const char *prog, const char *opt, const char *text, size
   return 0;
 }
 
+uint64_t recon_fnv1a(uint64_t h, const void *data, size_t n) {
+  const unsigned char *b = data;
+  for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * UINT64_C(1099511628211);
+  return h;
+}
+
 double recon_now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);

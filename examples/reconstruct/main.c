@@ -404,13 +404,8 @@ static int run(int argc, char **argv, outdir_t *dir) {
  * FNV-1a hash of the arguments, its maximum and its complement's over the
  * ranks. */
 static bool same_command_line(int argc, char **argv) {
-  unsigned long long h = 14695981039346656037ULL;
-  for (int i = 1; i < argc; ++i) {
-    for (const char *c = argv[i];; ++c) {
-      h = (h ^ (unsigned char)*c) * 1099511628211ULL;
-      if (*c == '\0') break;
-    }
-  }
+  uint64_t h = RECON_FNV_OFFSET;
+  for (int i = 1; i < argc; ++i) h = recon_fnv1a(h, argv[i], strlen(argv[i]) + 1); /* with its '\0' */
   unsigned long long mine[2] = {h, ~h}, all[2] = {0, 0};
   MPI_Allreduce(mine, all, 2, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
   return all[0] == mine[0] && all[1] == mine[1];

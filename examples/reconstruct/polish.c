@@ -112,9 +112,7 @@ static hetinv_result_t mean_gradient(hetinv_estimator_t *est, const hetinv_mediu
 static void fisher_header(char *line, size_t size, const double *pi, size_t k, double photons, int32_t replicates) {
   /* FNV-1a 64 of the recovery's entries: a polished copy polished again
    * must not reuse the matrix of the recovery it replaced. */
-  uint64_t hash = UINT64_C(14695981039346656037);
-  const unsigned char *b = (const unsigned char *)pi;
-  for (size_t i = 0; i < k * sizeof *pi; ++i) hash = (hash ^ b[i]) * UINT64_C(1099511628211);
+  uint64_t hash = recon_fnv1a(RECON_FNV_OFFSET, pi, k * sizeof *pi);
   snprintf(line, size, "hetinv polish Fisher matrix: k=%zu photons=%.0f replicates=%d stream=%d recovery=%016llx\n", k,
            photons, (int)replicates, POLISH_FISHER_STREAM, (unsigned long long)hash);
 }

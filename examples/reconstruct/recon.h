@@ -386,6 +386,10 @@ int recon_parse_choice(const char *prog, const char *opt, const char *text, cons
  * the path's length, when the path and the `reserve` bytes the program
  * appends to it (its sub-folders) would not fit a scene's output. */
 int recon_parse_folder(const char *prog, const char *opt, const char *text, size_t reserve);
+/* FNV-1a of n bytes, continuing from h (start: RECON_FNV_OFFSET): the
+ * programs' fingerprints of arrays and arguments (not a library hash). */
+#define RECON_FNV_OFFSET UINT64_C(14695981039346656037)
+uint64_t recon_fnv1a(uint64_t h, const void *data, size_t n);
 double recon_now(void);
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
 
