@@ -58,7 +58,7 @@
 #endif
 
 static int usage(const char *what) {
-  fprintf(stderr,
+  fprintf(recon_err(),
           "hetinv-reconstruct: %s\n"
           "usage: hetinv-reconstruct [scene.json] [-o DIR] [--resume] [--quiet]\n"
           "                          [--threads N] [--iterations N] [--photons N]\n"
@@ -166,7 +166,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
   if (bound_only && no_bound) return usage("--bound-only and --no-bound exclude each other");
   char msg[4096];
   if (scene_path && recon_scene_read(scene_path, &sc, msg, sizeof msg) < 0) {
-    fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+    fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
     return 1;
   }
   const bool files = sc.render_scene[0] != '\0';
@@ -236,7 +236,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
   if (files) {
     /* The render scene and the measured files; the truth, if named, only for the errors. */
     if (recon_files_load(ctx, &sc, &im, msg, sizeof msg) < 0) {
-      fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+      fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else if (sc.has_truth && recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
       status = recon_fail("hetinv-reconstruct", ctx, "truth");
@@ -269,7 +269,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
   char path[1200];
   if (status == 0 && write_scene) {
     if (root && recon_preset_write(ctx, &sc, truth, &im, sc.output, msg, sizeof msg) < 0) {
-      fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+      fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else if (root) {
       printf("wrote %s/{render.json, reconstruct.json, truth_*.vol}; to render and reconstruct from the files:\n"
@@ -283,10 +283,10 @@ static int run(int argc, char **argv, outdir_t *dir) {
     /* the bound needs the configuration and the truth only; files were read above */
   } else if (status == 0 && sc.measurements[0]) {
     if (recon_measurements_read(ctx, &im, sc.measurements, msg, sizeof msg) != HETINV_SUCCESS) {
-      fprintf(stderr, "hetinv-reconstruct: measurements: %s\n", msg);
+      fprintf(recon_err(), "hetinv-reconstruct: measurements: %s\n", msg);
       status = 1;
     } else if (sc.loss_clip_errors != RECON_CLIP_DATA && !recon_has_clip_scales(im.set)) {
-      fprintf(stderr, "hetinv-reconstruct: measurements: %s has no clip scale channels; "
+      fprintf(recon_err(), "hetinv-reconstruct: measurements: %s has no clip scale channels; "
                       "estimator.loss_clip_errors \"%s\" needs them (written by a run that used it)\n",
               sc.measurements, recon_clip_errors_names[sc.loss_clip_errors]);
       status = 1;
@@ -314,7 +314,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
   double seconds = 0.0;
   if (status == 0 && !bound_only && !write_scene &&
       recon_solve(ctx, &sc, &im, resume, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
-    fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+    if (msg[0] != '\0') fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
     status = 1;
   }
   status = agreed(ctx, status);
@@ -327,7 +327,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
   if (status == 0 && root && !bound_only && truth == NULL) {
     printf("optimisation %.1f s, total %.1f s (no truth given: no errors)\n", seconds, recon_now() - t0);
     if (recon_write_outputs(ctx, &sc, NULL, rec, NULL, msg, sizeof msg) != HETINV_SUCCESS) {
-      fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+      fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else {
       printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv%s%s}\n", sc.output,
@@ -354,7 +354,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
     }
     printf("optimisation %.1f s, total %.1f s\n", seconds, recon_now() - t0);
     if (recon_write_outputs(ctx, &sc, truth, rec, &e, msg, sizeof msg) != HETINV_SUCCESS) {
-      fprintf(stderr, "hetinv-reconstruct: %s\n", msg);
+      fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else {
       printf("wrote %s/{recovered_*.vol, maps.exr, maps_*.png, loss.csv, errors.csv%s%s}\n", sc.output,
@@ -371,7 +371,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
     } else if (root) {
       fit_check_print(&sc, fit_photons, &f);
       if (fit_check_store(&sc, fit_photons, &f) != 0) {
-        fprintf(stderr, "hetinv-reconstruct: %s/fit_check.csv: %s\n", sc.output, strerror(errno));
+        fprintf(recon_err(), "hetinv-reconstruct: %s/fit_check.csv: %s\n", sc.output, strerror(errno));
         status = 1;
       } else {
         printf("wrote %s/fit_check.csv\n", sc.output);
@@ -382,7 +382,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
     gradient_check_t g;
     if (gradient_check_compare(ctx, &sc, im.set, truth, rec, (int32_t)gradient_replicates, 0.15, &g, msg,
                                       sizeof msg) != HETINV_SUCCESS) {
-      fprintf(stderr, "hetinv-reconstruct: gradient check: %s\n", msg);
+      fprintf(recon_err(), "hetinv-reconstruct: gradient check: %s\n", msg);
       status = 1;
     } else {
       gradient_check_print(&sc, &g);
@@ -417,17 +417,28 @@ int main(int argc, char **argv) {
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
   if (!same_command_line(argc, argv)) {
-    fprintf(stderr, "hetinv-reconstruct: the MPI ranks were given different arguments; every rank must run "
-                    "the same command\n");
+    if (world_rank() == 0) { /* every rank finds it */
+      fprintf(stderr, "hetinv-reconstruct: the MPI ranks were given different arguments; every rank must run "
+                      "the same command\n");
+    }
     MPI_Finalize();
     return 2;
   }
+  if (world_rank() != 0) recon_err_hold();
 #endif
   outdir_t dir = {-1};
   int status = run(argc, argv, &dir);
   if (outdir_finish_stdout("hetinv-reconstruct") != 0) status = 1;
   outdir_close(&dir);
 #ifdef HETINV_RECONSTRUCT_MPI
+  /* Each failure once: the lowest rank that wrote a message prints its
+   * messages (rank 0 printed its own as they came), the others' are
+   * dropped. They are copies of the same failure (a damaged checkpoint
+   * every rank read) or, rarely, another failure of their own after the
+   * one printed, which ended the run already. */
+  int mine = recon_erred() ? world_rank() : world_size(), first = 0;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  recon_err_release(first == world_rank());
   MPI_Finalize();
 #endif
   return status;

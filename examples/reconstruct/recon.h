@@ -374,7 +374,9 @@ int recon_text_commit(FILE *f, const char *tmp, const char *path);
 /* Command-line helpers (cli.c). recon_parse_count: an integer option in
  * [lo, hi], or -1 after a message "<prog>: <opt>: '<text>' is not ...".
  * recon_now: monotonic seconds. recon_fail: prints "<prog>: <what>: " and
- * the context's last error message (ctx may be NULL); returns 1. */
+ * the context's last error message (ctx may be NULL); returns 1. Under MPI
+ * it prints nothing where recon_failed_elsewhere(ctx): the rank the
+ * failure arose on prints it, so it is printed once. */
 int recon_parse_count(const char *prog, const char *opt, const char *text, int64_t lo, int64_t hi,
                       int64_t *out);
 /* The same for a real number in [lo, hi] (NaN is refused). */
@@ -392,6 +394,17 @@ int recon_parse_folder(const char *prog, const char *opt, const char *text, size
 uint64_t recon_fnv1a(uint64_t h, const void *data, size_t n);
 double recon_now(void);
 int recon_fail(const char *prog, const hetinv_context_t *ctx, const char *what);
+bool recon_failed_elsewhere(const hetinv_context_t *ctx);
+/* Where a program writes its error messages: stderr, or after
+ * recon_err_hold() a buffer in memory that recon_err_release(print) writes
+ * to stderr or drops. Under MPI most failures are every rank's alike (a
+ * damaged checkpoint, a scene's error): ranks other than 0 hold theirs,
+ * and only the lowest rank that wrote one (recon_erred) prints, so each
+ * failure is printed once, by the first rank that had it. */
+FILE *recon_err(void);
+void recon_err_hold(void);
+bool recon_erred(void);
+void recon_err_release(bool print);
 
 /* The Cramér–Rao bound of the configuration at a medium, the truth or,
  * from measured files without one, the recovery (bound.c): per voxel and

@@ -213,6 +213,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
                             bool resume, bool quiet, hetinv_medium_t **out, double *seconds, char *msg,
                             size_t msg_size) {
   *out = NULL;
+  msg[0] = '\0'; /* stays empty where another rank's failure is printed there */
   /* Nothing left to fit is an error, not a "recovery" equal to the start. */
   size_t values = hetinv_measurements_value_count(im->set), masked = 0, weightless = 0;
   const uint8_t *mask = hetinv_measurements_mask(im->set);
@@ -290,7 +291,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (seconds) *seconds = pl.elapsed;
   if (stage_failed) {
     snprintf(msg, msg_size, "%s", pl.failure);
-  } else if (r != HETINV_SUCCESS) {
+  } else if (r != HETINV_SUCCESS && !recon_failed_elsewhere(ctx)) {
     snprintf(msg, msg_size, "reconstruction: %s", hetinv_context_last_error_message(ctx));
   }
   double *gains = NULL;
@@ -298,7 +299,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS && sc->gain_mode != HETINV_GAIN_NONE) {
     r = fit_gains(est, sc->photons, *out, im, &gains, &gain_count);
     if (r != HETINV_SUCCESS) {
-      snprintf(msg, msg_size, "calibration gain: %s", hetinv_context_last_error_message(ctx));
+      if (!recon_failed_elsewhere(ctx)) snprintf(msg, msg_size, "calibration gain: %s", hetinv_context_last_error_message(ctx));
     } else if (hetinv_context_rank(ctx) == 0) {
       r = write_gains(sc, im, gains, gain_count, msg, msg_size);
     }

@@ -142,7 +142,9 @@ HETINV_API int32_t hetinv_context_rank_count(const hetinv_context_t *ctx);
  * rank 0 writing a file: every rank passes its status, and every rank
  * returns the code of the first rank (in rank order) that failed, or
  * HETINV_SUCCESS. A failing rank keeps its own message; the others record
- * one naming it. Call it after such a step and before the next collective
+ * one naming it (not its text: the status may be the program's own, which
+ * no library message describes); hetinv_context_last_error_rank() gives
+ * its rank. Call it after such a step and before the next collective
  * call (an estimator's render or gradient, an optimizer's run), or a rank
  * that stopped alone leaves the others waiting for it forever.
  * @param ctx the context.
@@ -187,6 +189,23 @@ HETINV_API const char *hetinv_context_last_error_message(const hetinv_context_t 
  *        HETINV_SUCCESS when there is none. Thread-safe.
  */
 HETINV_API hetinv_result_t hetinv_context_last_error_code(const hetinv_context_t *ctx);
+
+/**
+ * @brief The MPI rank the last failure on the calling thread arose on, with
+ *        the same context rule as hetinv_context_last_error_message().
+ *
+ * A collective call (a render, a gradient, an optimizer's run) that fails
+ * on one rank fails on every rank: the failing rank records its own message
+ * and its own rank, the others a copy of its message ("rank 1 of 2: ...")
+ * and its rank. A failure every rank detects alike (the ranks' calls
+ * differ) is reported as rank 0's. So a distributed program prints a
+ * failure once by printing it only where this equals hetinv_context_rank().
+ * Without MPI, or with one rank, every failure is rank 0's.
+ * @param ctx the context the failing call was made on, or NULL.
+ * @return the rank, or -1 when there is no failure to report. Thread-safe.
+ * Added in 0.3.
+ */
+HETINV_API int32_t hetinv_context_last_error_rank(const hetinv_context_t *ctx);
 
 #ifdef __cplusplus
 }

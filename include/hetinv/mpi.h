@@ -25,7 +25,9 @@
  * cotangent, the measured values of a loss gradient): where they differ,
  * every rank fails with HETINV_ERROR_INVALID_ARGUMENT, instead of
  * returning a mix. A failure on one rank (a bad argument, out of memory) is
- * reported by every rank with that rank's result code. A rank that does
+ * reported by every rank with that rank's result code and a copy of its
+ * message ("rank 1 of 2: ..."); hetinv_context_last_error_rank() names the
+ * rank it arose on, so a program prints it once. A rank that does
  * not make the call at all still leaves the others waiting: a program's
  * own steps that one rank takes alone (writing a file) are followed by
  * hetinv_context_agree(). hetinv_optimizer_run() is collective too: its

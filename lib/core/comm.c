@@ -1,6 +1,9 @@
 #include "core/comm.h"
 
 #include <limits.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <string.h>
 
 #include "core/alloc.h"
 #include "core/context_internal.h"
@@ -23,7 +26,8 @@ HETINV_API int32_t hetinv_context_rank_count(const hetinv_context_t *ctx) {
 HETINV_API hetinv_result_t hetinv_context_agree(const hetinv_context_t *ctx, hetinv_result_t status) {
   HV_API_ENTER();
   HV_CHECK_NULL(NULL, ctx);
-  return hv_comm_agree(ctx, status, 0, "nothing");
+  /* The status may be the program's own: no library message to carry. */
+  return hv_comm_agree_status(ctx, status);
 }
 
 HETINV_API int hetinv_build_has_mpi(void) {
@@ -49,6 +53,11 @@ hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t statu
   (void)ctx;
   (void)key;
   (void)what;
+  return status;
+}
+
+hetinv_result_t hv_comm_agree_status(const hetinv_context_t *ctx, hetinv_result_t status) {
+  (void)ctx;
   return status;
 }
 
@@ -139,7 +148,37 @@ HETINV_API hetinv_result_t hetinv_context_set_mpi_comm(hetinv_context_t *ctx, MP
   return attach(ctx, comm);
 }
 
-hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t status, uint64_t key, const char *what) {
+/* The first failing rank's code and, where `carry`, its message, sent to
+ * every rank; returns what this rank records. */
+static hetinv_result_t take_failure(const hetinv_context_t *ctx, hetinv_result_t status, int first, bool carry) {
+  struct {
+    int32_t code;
+    char text[HV_MESSAGE_CAPACITY];
+  } f = {status, ""};
+  if (ctx->rank == first && carry) {
+    const char *mine = hv_last_failure(ctx, status);
+    if (mine != NULL) snprintf(f.text, sizeof f.text, "%s", mine);
+  }
+  /* The text only when there is one: a program's agreement sends 4 bytes. */
+  int err = MPI_Bcast(&f, carry ? (int)sizeof f : (int)sizeof f.code, MPI_BYTE, first, ctx->comm);
+  if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Bcast", err);
+  if (status != HETINV_SUCCESS) return status;
+  hetinv_result_t code = (hetinv_result_t)f.code;
+  f.text[sizeof f.text - 1] = '\0';
+  if (f.text[0] == '\0') {
+    return hv_fail_from_rank(ctx, code, first, __func__, "rank %d of %d failed with %s (its own message says why)",
+                             first, ctx->rank_count, hetinv_result_name(code));
+  }
+  /* "hetinv_estimator_render: 'values' is NULL" from a rank in the same
+   * call: its function's name is this message's prefix already. */
+  const char *text = f.text, *entry = hv_api_entry;
+  size_t n = entry != NULL ? strlen(entry) : 0;
+  if (n > 0 && strncmp(text, entry, n) == 0 && text[n] == ':' && text[n + 1] == ' ') text += n + 2;
+  return hv_fail_from_rank(ctx, code, first, __func__, "rank %d of %d: %s", first, ctx->rank_count, text);
+}
+
+static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status, uint64_t key, const char *what,
+                             bool carry) {
   int ranks = ctx->rank_count;
   if (ranks == 1) return status;
   /* One reduction by maximum: ranks − (first failing rank), and the key
@@ -148,19 +187,21 @@ hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t statu
   uint64_t mine[3] = {status != HETINV_SUCCESS ? (uint64_t)(ranks - ctx->rank) : 0, key, ~key}, all[3];
   int err = MPI_Allreduce(mine, all, 3, MPI_UINT64_T, MPI_MAX, ctx->comm);
   if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Allreduce", err);
-  if (all[0] != 0) {
-    int first = ranks - (int)all[0], code = status;
-    err = MPI_Bcast(&code, 1, MPI_INT, first, ctx->comm);
-    if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Bcast", err);
-    if (status != HETINV_SUCCESS) return status;
-    return HV_FAIL(ctx, code, "rank %d of %d failed with %s (its own message says why)", first, ranks,
-                   hetinv_result_name(code));
-  }
+  if (all[0] != 0) return take_failure(ctx, status, ranks - (int)all[0], carry);
   if (all[1] != key || all[2] != ~key) {
-    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "the %d ranks' calls differ in %s; every rank must pass the same", ranks, what);
+    /* Every rank finds it; reported as rank 0's, so that it is printed once. */
+    return hv_fail_from_rank(ctx, HETINV_ERROR_INVALID_ARGUMENT, 0, __func__,
+                             "the %d ranks' calls differ in %s; every rank must pass the same", ranks, what);
   }
   return HETINV_SUCCESS;
+}
+
+hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t status, uint64_t key, const char *what) {
+  return agree(ctx, status, key, what, true);
+}
+
+hetinv_result_t hv_comm_agree_status(const hetinv_context_t *ctx, hetinv_result_t status) {
+  return agree(ctx, status, 0, "nothing", false);
 }
 
 hetinv_result_t hv_comm_or(const hetinv_context_t *ctx, uint32_t *flags) {
@@ -170,10 +211,6 @@ hetinv_result_t hv_comm_or(const hetinv_context_t *ctx, uint32_t *flags) {
   if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Allreduce", err);
   *flags = all;
   return HETINV_SUCCESS;
-}
-
-static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status) {
-  return hv_comm_agree(ctx, status, 0, "nothing");
 }
 
 hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *data, size_t count,
@@ -188,7 +225,7 @@ hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *dat
     status = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the counts of %d ranks",
                      ranks);
   }
-  hetinv_result_t r = agree(ctx, status);
+  hetinv_result_t r = hv_comm_agree(ctx, status, 0, "nothing");
   int64_t mine = (int64_t)count, total = 0;
   if (r == HETINV_SUCCESS) {
     int err = MPI_Allgather(&mine, 1, MPI_INT64_T, sizes, 1, MPI_INT64_T, ctx->comm);
@@ -214,7 +251,7 @@ hetinv_result_t hv_comm_allgather(const hetinv_context_t *ctx, const double *dat
       mine_r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY,
                        "cannot allocate %lld doubles for the gathered results", (long long)total);
     }
-    r = agree(ctx, mine_r);
+    r = hv_comm_agree(ctx, mine_r, 0, "nothing");
   }
   if (r == HETINV_SUCCESS && total > 0) {
     int err = MPI_Allgatherv(data, (int)count, MPI_DOUBLE, buf, counts, displs, MPI_DOUBLE, ctx->comm);

@@ -29,12 +29,19 @@ static inline void hv_comm_block(int64_t n, int32_t rank, int32_t ranks, int64_t
  * with one rank it only returns `status`. Every rank passes its status so
  * far and `key`, a hash of the arguments every rank must pass alike. Every
  * rank returns the code of the first failing rank (in rank order): a
- * failing rank keeps its own message, the others record one naming it. If
+ * failing rank keeps its own message, the others record a copy of it
+ * ("rank 1 of 2: ...", hetinv_context_last_error_rank() 1) where the
+ * failing rank's last message is that failure's, else one naming it. If
  * none failed but the keys differ, every rank fails with
  * HETINV_ERROR_INVALID_ARGUMENT naming `what` (the keys' content). A rank
  * that fails before a collective must still come here, or the others wait
  * for it forever. */
 hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t status, uint64_t key, const char *what);
+
+/* hv_comm_agree for a status that may be the caller's own, not a library
+ * failure (hetinv_context_agree): the others' message names the failing
+ * rank and its code, never a text of that rank's that may be stale. */
+hetinv_result_t hv_comm_agree_status(const hetinv_context_t *ctx, hetinv_result_t status);
 
 /* Collective like hv_comm_agree: *flags becomes the bitwise OR of every
  * rank's flags (one rank: unchanged), so that a decision one rank takes

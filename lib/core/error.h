@@ -29,6 +29,23 @@ __attribute__((format(printf, 4, 5)))
 hetinv_result_t hv_fail(const hetinv_context_t *ctx, hetinv_result_t code, const char *func,
                         const char *fmt, ...);
 
+/* Capacity of a failure's message, its terminating '\0' included. */
+enum { HV_MESSAGE_CAPACITY = 1024 };
+
+/* As hv_fail, for a failure that arose on rank @p origin of the context's
+ * communicator and that a collective call carried here: the message is
+ * this rank's copy, hetinv_context_last_error_rank() reports @p origin. */
+#if defined(__GNUC__)
+__attribute__((format(printf, 5, 6)))
+#endif
+hetinv_result_t hv_fail_from_rank(const hetinv_context_t *ctx, hetinv_result_t code, int32_t origin,
+                                  const char *func, const char *fmt, ...);
+
+/* The calling thread's last message if it records a failure of @p ctx with
+ * @p code, else NULL: what a collective call carries from a failing rank to
+ * the others. */
+const char *hv_last_failure(const hetinv_context_t *ctx, hetinv_result_t code);
+
 /* Failures name the public function the user called, whichever helper they
  * come from: helpers take no name parameter. */
 #define HV_FAIL(ctx, code, ...) hv_fail((ctx), (code), __func__, __VA_ARGS__)

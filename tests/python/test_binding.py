@@ -30,8 +30,15 @@ class Errors(unittest.TestCase):
         self.assertTrue(str(e).startswith("hetinv_medium_fill:"), str(e))
         self.assertIn("-0.3", str(e))
         self.assertEqual(str(e), self.ctx.last_error_message())
+        self.assertEqual(self.ctx.last_error_rank(), 0)  # one rank: every failure is rank 0's
         self.assertIsInstance(e, ValueError)
         self.assertIsInstance(e, hetinv.HetinvError)
+
+    def test_agree_on_one_rank_returns_its_own_status(self):
+        self.ctx.agree()
+        self.ctx.agree(False)
+        with self.assertRaises(hetinv.FileIOError):
+            self.ctx.agree(True)
 
     def test_voxel_outside_the_grid_raises_out_of_range(self):
         m = hetinv.Medium(self.ctx, (0, 0, 0), (1, 1, 1), (2, 2, 2))

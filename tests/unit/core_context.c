@@ -41,6 +41,14 @@ static void context_without_mpi_is_rank_zero_of_one(void **state) {
   /* One rank agrees with itself: its own status comes back. */
   assert_int_equal(hetinv_context_agree(ctx, HETINV_SUCCESS), HETINV_SUCCESS);
   assert_int_equal(hetinv_context_agree(ctx, HETINV_ERROR_IO), HETINV_ERROR_IO);
+  /* Every failure is rank 0's; none to report for another context. */
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_medium_fill(NULL, 1, 1, 0));
+  assert_int_equal(hetinv_context_last_error_rank(NULL), 0);
+  assert_int_equal(hetinv_context_last_error_rank(ctx), -1);
+  double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+  int32_t n[3] = {1, 1, 1};
+  assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_medium_create(ctx, lo, hi, n, NULL));
+  assert_int_equal(hetinv_context_last_error_rank(ctx), 0);
   int has = hetinv_build_has_mpi();
   assert_true(has == 0 || has == 1);
   hetinv_context_destroy(&ctx);

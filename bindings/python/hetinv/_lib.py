@@ -52,6 +52,7 @@ PROTOTYPES = {
     "hetinv_build_has_mpi": (ctypes.c_int, []),
     "hetinv_context_last_error_message": (_cp, [_vp]),
     "hetinv_context_last_error_code": (_R, [_vp]),
+    "hetinv_context_last_error_rank": (_i32, [_vp]),
     # medium.h
     "hetinv_param_name": (_cp, [_i32]),
     "hetinv_medium_create": (_R, [_vp, c_double_p, c_double_p, c_int32_p, c_void_pp]),

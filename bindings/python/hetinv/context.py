@@ -2,7 +2,7 @@
 import ctypes
 
 from ._args import integer
-from ._errors import check
+from ._errors import FileIOError, check
 from ._handle import Handle
 from ._lib import lib
 from ._structs import ContextInit
@@ -49,3 +49,18 @@ class Context(Handle):
 
     def last_error_code(self):
         return lib.context_last_error_code(self._ptr)
+
+    def last_error_rank(self):
+        """MPI rank this context's last failure arose on (-1 if none): a
+        collective call that failed on one rank raises on every rank, and
+        the others' message is a copy of the failing rank's, so a program
+        prints it where last_error_rank() == rank."""
+        return lib.context_last_error_rank(self._ptr)
+
+    def agree(self, failed=False):
+        """Collective under MPI (hetinv_context_agree): after a step one
+        rank takes alone (rank 0 writing a file), every rank passes whether
+        its own step failed, and every rank raises FileIOError if any did,
+        so that all stop before the next collective call. Without MPI it
+        raises exactly when `failed`."""
+        check(lib.context_agree(self._ptr, FileIOError.code if failed else 0))
