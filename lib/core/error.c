@@ -17,6 +17,9 @@ static _Thread_local struct {
 
 _Thread_local const char *hv_api_entry HV_API_ENTRY_TLS;
 
+#if defined(__GNUC__)
+__attribute__((format(printf, 5, 0))) /* a va_list wrapper: its callers' formats are checked */
+#endif
 static hetinv_result_t record(const hetinv_context_t *ctx, hetinv_result_t code, int32_t rank, const char *func,
                               const char *fmt, va_list args) {
   const char *name = hv_api_entry != NULL ? hv_api_entry : func;
