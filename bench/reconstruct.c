@@ -1,5 +1,5 @@
 /* hetinv-bench-reconstruct: the built-in reduced Fig. 4 scene of
- * hetinv-reconstruct (recon_scene_default: a 6 × 1 × 6 section of a 0.6 mm cube, η = 1.3,
+ * hetinv-reconstruct (recon_scene_builtin: a 6 × 1 × 6 section of a 0.6 mm cube, η = 1.3,
  * steady-state cameras on four faces), end to end: ground truth, simulated
  * acquisition, the coarse-to-fine optimisation, errors and output files.
  *
@@ -210,7 +210,7 @@ static int parse_seeds(const char *text, int64_t *first, int64_t *last) {
 
 int main(int argc, char **argv) {
   recon_scene_t sc;
-  recon_scene_default(&sc);
+  recon_scene_builtin(&sc); /* --scene is read over it */
   const char *out_dir = NULL, *scene_path = NULL;
   int64_t iterations = -1, photons = -1, truth_photons = -1, threads = -1, seed_first = -1, seed_last = -1;
   int64_t bound_photons = 0;

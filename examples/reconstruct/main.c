@@ -165,7 +165,9 @@ static int run(int argc, char **argv, outdir_t *dir) {
   }
   if (bound_only && no_bound) return usage("--bound-only and --no-bound exclude each other");
   char msg[4096];
-  if (scene_path && recon_scene_read(scene_path, &sc, msg, sizeof msg) < 0) {
+  if (scene_path == NULL) {
+    recon_scene_builtin(&sc);
+  } else if (recon_scene_read(scene_path, &sc, msg, sizeof msg) < 0) {
     fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
     return 1;
   }

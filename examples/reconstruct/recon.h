@@ -182,8 +182,12 @@ typedef struct recon_scene {
   char name[128];
 } recon_scene_t;
 
-/* The built-in reduced Fig. 4 scene. */
+/* The reduced Fig. 4 scene's settings, which a scene file is read over. */
 void recon_scene_default(recon_scene_t *scene);
+/* The built-in scene hetinv-reconstruct runs without a scene file:
+ * recon_scene_default plus the settings chosen on its own volumes alone
+ * (its smoothness prior); a scene file is read over recon_scene_default. */
+void recon_scene_builtin(recon_scene_t *scene);
 /* Sets scene->output from printf-style arguments. Returns -1, leaving it
  * unchanged, when the path does not fit: output paths are never cut short
  * (a shortened folder would receive another folder's files). */
