@@ -68,7 +68,7 @@ int recon_parse_choice(const char *prog, const char *opt, const char *text, cons
   }
   fprintf(recon_err(), "%s: %s: '%s' is not one of", prog, opt, text ? text : "");
   for (int k = 0; names[k] != NULL; ++k) fprintf(recon_err(), "%s %s", k ? "," : "", names[k]);
-  fputc('\n', stderr);
+  fputc('\n', recon_err());
   return -1;
 }
 
