@@ -195,6 +195,22 @@ static void at_exit(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_senso
   if (pixel >= 0) hv_score(plan, t, tally, tally->ballistic, log, pixel, out->tau, out->w * o->ballistic_scale);
 }
 
+/* A camera looking along a face normal is reached only from the prism
+ * over its pixels: covers()'s outer test, widened by a relative 1e-9 so
+ * that no rounding of the box's comparisons skips a vertex it would
+ * take. Any other direction reaches it from everywhere. */
+static void reach(const hetinv_sensor_t *s, double lo[3], double hi[3]) {
+  const ortho_t *o = s->data;
+  if (!o->normal) return;
+  int ax[2];
+  hv_face_uv_axes(s->face, &ax[0], &ax[1]);
+  for (int i = 0; i < 2; ++i) {
+    double margin = 1e-9 * (fabs(s->origin[i]) + o->outside[i]);
+    lo[ax[i]] = s->origin[i] - margin;
+    hi[ax[i]] = s->origin[i] + o->outside[i] + margin;
+  }
+}
+
 /* A camera looking along a face normal connects along that axis, both
  * ways (its chains reflect off the opposite face). */
 static uint32_t axis_walks(const hetinv_sensor_t *s) {
@@ -212,6 +228,7 @@ static uint64_t fingerprint(const hetinv_sensor_t *s, uint64_t h) {
 static const hv_sensor_kind_t ORTHOGRAPHIC = {.name = "orthographic",
                                               .prepare = prepare,
                                               .at_vertex = at_vertex,
+                                              .reach = reach,
                                               .at_exit = at_exit,
                                               .axis_walks = axis_walks,
                                               .fingerprint = fingerprint};

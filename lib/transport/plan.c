@@ -1,5 +1,6 @@
 #include "transport/plan.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "core/alloc.h"
@@ -32,6 +33,10 @@ static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *
   p->range_lo = hv_calloc(ctx, (size_t)n, sizeof(size_t));
   p->range_hi = hv_calloc(ctx, (size_t)n, sizeof(size_t));
   if (!p->rows || !p->targets || !p->at_vertex || !p->at_exit || !p->range_lo || !p->range_hi) return false;
+  for (int a = 0; a < 3; ++a) {
+    p->reach_lo[a] = INFINITY;
+    p->reach_hi[a] = -INFINITY;
+  }
   /* Group rows by sensor, keeping the order of first use. */
   int32_t placed = 0;
   for (int32_t i = 0; i < n; ++i) {
@@ -51,7 +56,18 @@ static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *
       t->row_count++;
     }
     if (t->kind->prepare) t->kind->prepare(t);
-    if (t->kind->at_vertex) p->at_vertex[p->vertex_count++] = t;
+    if (t->kind->at_vertex) {
+      p->at_vertex[p->vertex_count++] = t;
+      for (int a = 0; a < 3; ++a) {
+        t->reach_lo[a] = -INFINITY;
+        t->reach_hi[a] = INFINITY;
+      }
+      if (t->kind->reach) t->kind->reach(s, t->reach_lo, t->reach_hi);
+      for (int a = 0; a < 3; ++a) {
+        p->reach_lo[a] = fmin(p->reach_lo[a], t->reach_lo[a]);
+        p->reach_hi[a] = fmax(p->reach_hi[a], t->reach_hi[a]);
+      }
+    }
     if (t->kind->at_exit) p->at_exit[p->exit_count++] = t;
   }
   for (int32_t i = 0; i < n; ++i) {

@@ -25,6 +25,7 @@ typedef struct hv_sensor_target {
   const struct hv_sensor_kind *kind; /* the sensor's (transport/sensor_kind.h) */
   int32_t first_row, row_count; /* into hv_plan_t::rows */
   double cache[4]; /* the kind's per-target data (its prepare hook) */
+  double reach_lo[3], reach_hi[3]; /* the vertices it can score from (its kind's reach hook) */
 } hv_sensor_target_t;
 
 typedef struct hv_plan {
@@ -35,6 +36,9 @@ typedef struct hv_plan {
   int32_t target_count, vertex_count, exit_count;
   hv_sensor_target_t *targets;
   const hv_sensor_target_t **at_vertex, **at_exit;
+  /* The box around the vertex sensors' reach boxes (empty without one): a
+   * vertex outside it calls no at_vertex hook. */
+  double reach_lo[3], reach_hi[3];
   hv_row_target_t *rows;
   int32_t range_count;                 /* the value ranges its rows cover */
   size_t *range_lo, *range_hi;

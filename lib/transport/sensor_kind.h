@@ -40,6 +40,13 @@ struct hv_sensor_kind {
   void (*at_vertex)(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sensor_target_t *t,
                     const hv_ray_t *vertex, double w, hv_phase_t phase, double tau, hv_rng_t *rng,
                     hv_tally_t *tally);
+  /* The box [lo, hi] that holds every vertex from which at_vertex can
+   * score or draw: the photon loop does not call at_vertex at a vertex
+   * outside it, so the box must be conservative (a camera along a face
+   * normal reaches only the prism over its pixels: in a 2D section's row,
+   * 1–4 % of the vertices; the calls that returned at once were most of
+   * a reconstruction's connection time). NULL: everywhere. */
+  void (*reach)(const hetinv_sensor_t *s, double lo[3], double hi[3]);
   /* At a boundary exit of a path whose scattering count is scored. NULL:
    * the kind scores no exit. */
   void (*at_exit)(const hv_tracer_t *tr, const hv_plan_t *plan, const hv_sensor_target_t *t,

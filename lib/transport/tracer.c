@@ -57,6 +57,12 @@ void hv_grad_apply_log(hv_grad_tally_t *gt, const hv_grid_t *grid, const hv_path
   }
 }
 
+/* Whether p lies in [lo, hi] (a sensor's reach, plan.h): bitwise ANDs,
+ * no early exits, since most vertices fail on the section's one axis. */
+HV_ALWAYS_INLINE static inline bool in_box(const double p[3], const double lo[3], const double hi[3]) {
+  return (p[0] >= lo[0]) & (p[0] <= hi[0]) & (p[1] >= lo[1]) & (p[1] <= hi[1]) & (p[2] >= lo[2]) & (p[2] <= hi[2]);
+}
+
 /* A photon that reaches the boundary from inside: returns 1 if it leaves
  * (and scores it), 0 if it is reflected back (r->d updated). */
 static int cross_boundary(const hv_tracer_t *tr, const hv_plan_t *plan, hv_rng_t *rng,
@@ -139,10 +145,10 @@ HV_ALWAYS_INLINE static inline void trace(const hv_tracer_t *tr, const hv_plan_t
       }
     }
     hv_phase_t phase = {HV_PHASE_HG, vx->g};
-    if (scatterings >= tr->min_scattering) {
+    if (scatterings >= tr->min_scattering && in_box(r.p, plan->reach_lo, plan->reach_hi)) {
       for (int32_t i = 0; i < plan->vertex_count; ++i) {
         const hv_sensor_target_t *t = plan->at_vertex[i];
-        t->kind->at_vertex(tr, plan, t, &r, w, phase, tau, rng, tally);
+        if (in_box(r.p, t->reach_lo, t->reach_hi)) t->kind->at_vertex(tr, plan, t, &r, w, phase, tau, rng, tally);
       }
     }
     double d_new[3];

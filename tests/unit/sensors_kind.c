@@ -6,6 +6,7 @@
  * other change: its render and gradient equal, bit for bit, those of the
  * hemispherical sensor over the same face (which scores the same at exits),
  * and a kind without hooks scores nothing. */
+#include <math.h>
 #include <string.h>
 
 #include "test_support.h"
@@ -121,10 +122,56 @@ static void a_kind_without_hooks_scores_nothing(void **state) {
   fixture_release(&f);
 }
 
+/* A camera along a face normal reaches only the prism over its pixels
+ * (its reach hook): the photon loop then skips the connection hook at every
+ * other vertex. Skipping must change nothing: the render and gradient equal,
+ * bit for bit, those of the same camera with the hook called everywhere,
+ * and a point just outside the box lies on no pixel. */
+static void a_reach_box_skips_only_vertices_that_cannot_score(void **state) {
+  (void)state;
+  fixture_t f;
+  fixture_init(&f);
+  /* Two 0.3 × 0.2 pixels off the face's centre, on z = 2, looking along +z. */
+  hetinv_sensor_t *cam = NULL;
+  assert_ok(hetinv_sensor_create_orthographic(f.medium, HETINV_FACE_Z_MAX, (double[]){0, 0, 1},
+                                              (double[]){0.5, 1.1}, (double[]){0.3, 0.2}, 2, 1, &cam));
+  double lo[3] = {-INFINITY, -INFINITY, -INFINITY}, hi[3] = {INFINITY, INFINITY, INFINITY};
+  assert_non_null(cam->kind->reach);
+  cam->kind->reach(cam, lo, hi);
+  assert_true(lo[0] <= 0.5 && hi[0] >= 1.1 && lo[1] <= 1.1 && hi[1] >= 1.3);
+  assert_true(lo[0] > 0.49 && hi[0] < 1.11 && lo[1] > 1.09 && hi[1] < 1.31); /* the box is the prism */
+  assert_true(isinf(lo[2]) && isinf(hi[2]));
+  for (int a = 0; a < 2; ++a) {
+    double p[3] = {0.8, 1.2, 1.0};
+    p[a] = nextafter(lo[a], -INFINITY);
+    assert_true(hv_sensor_pixel_at(cam, p) < 0);
+    p[a] = nextafter(hi[a], INFINITY);
+    assert_true(hv_sensor_pixel_at(cam, p) < 0);
+  }
+  /* 2 pixels × 4 bins: run() expects 4 values, so one bin set of 2 bins. */
+  double centres[2] = {1.5, 4.5};
+  hetinv_pathlength_destroy(&f.bins);
+  assert_ok(hetinv_pathlength_create_bins(f.ctx, HETINV_WINDOW_BOX, 2, centres, 3.0, &f.bins));
+  double v_box[4], v_all[4], g_box[3 * VOXELS], g_all[3 * VOXELS];
+  run(&f, cam, v_box, g_box);
+  const hv_sensor_kind_t *kind = cam->kind;
+  hv_sensor_kind_t everywhere = *kind;
+  everywhere.reach = NULL;
+  cam->kind = &everywhere;
+  run(&f, cam, v_all, g_all);
+  cam->kind = kind;
+  assert_memory_equal(v_box, v_all, sizeof v_box);
+  assert_memory_equal(g_box, g_all, sizeof g_box);
+  assert_true(v_box[0] > 0.0 && v_box[1] > 0.0);
+  hetinv_sensor_destroy(&cam);
+  fixture_release(&f);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(a_kind_in_one_file_scores_like_its_builtin_twin),
       cmocka_unit_test(a_kind_without_hooks_scores_nothing),
+      cmocka_unit_test(a_reach_box_skips_only_vertices_that_cannot_score),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
