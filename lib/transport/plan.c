@@ -34,8 +34,8 @@ static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *
   p->range_hi = hv_calloc(ctx, (size_t)n, sizeof(size_t));
   if (!p->rows || !p->targets || !p->at_vertex || !p->at_exit || !p->range_lo || !p->range_hi) return false;
   for (int a = 0; a < 3; ++a) {
-    p->reach_lo[a] = INFINITY;
-    p->reach_hi[a] = -INFINITY;
+    p->reach_lo[a] = (double)INFINITY;
+    p->reach_hi[a] = -(double)INFINITY;
   }
   /* Group rows by sensor, keeping the order of first use. */
   int32_t placed = 0;
@@ -59,8 +59,8 @@ static bool fill_plan(const hetinv_measurements_t *set, const hetinv_context_t *
     if (t->kind->at_vertex) {
       p->at_vertex[p->vertex_count++] = t;
       for (int a = 0; a < 3; ++a) {
-        t->reach_lo[a] = -INFINITY;
-        t->reach_hi[a] = INFINITY;
+        t->reach_lo[a] = -(double)INFINITY;
+        t->reach_hi[a] = (double)INFINITY;
       }
       if (t->kind->reach) t->kind->reach(s, t->reach_lo, t->reach_hi);
       for (int a = 0; a < 3; ++a) {

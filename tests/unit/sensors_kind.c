@@ -135,7 +135,11 @@ static void a_reach_box_skips_only_vertices_that_cannot_score(void **state) {
   hetinv_sensor_t *cam = NULL;
   assert_ok(hetinv_sensor_create_orthographic(f.medium, HETINV_FACE_Z_MAX, (double[]){0, 0, 1},
                                               (double[]){0.5, 1.1}, (double[]){0.3, 0.2}, 2, 1, &cam));
-  double lo[3] = {-INFINITY, -INFINITY, -INFINITY}, hi[3] = {INFINITY, INFINITY, INFINITY};
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = -(double)INFINITY;
+    hi[a] = (double)INFINITY;
+  }
   assert_non_null(cam->kind->reach);
   cam->kind->reach(cam, lo, hi);
   assert_true(lo[0] <= 0.5 && hi[0] >= 1.1 && lo[1] <= 1.1 && hi[1] >= 1.3);
@@ -143,12 +147,12 @@ static void a_reach_box_skips_only_vertices_that_cannot_score(void **state) {
   assert_true(isinf(lo[2]) && isinf(hi[2]));
   for (int a = 0; a < 2; ++a) {
     double p[3] = {0.8, 1.2, 1.0};
-    p[a] = nextafter(lo[a], -INFINITY);
+    p[a] = nextafter(lo[a], -(double)INFINITY);
     assert_true(hv_sensor_pixel_at(cam, p) < 0);
-    p[a] = nextafter(hi[a], INFINITY);
+    p[a] = nextafter(hi[a], (double)INFINITY);
     assert_true(hv_sensor_pixel_at(cam, p) < 0);
   }
-  /* 2 pixels × 4 bins: run() expects 4 values, so one bin set of 2 bins. */
+  /* run() expects 4 values: 2 pixels × 2 bins. */
   double centres[2] = {1.5, 4.5};
   hetinv_pathlength_destroy(&f.bins);
   assert_ok(hetinv_pathlength_create_bins(f.ctx, HETINV_WINDOW_BOX, 2, centres, 3.0, &f.bins));
