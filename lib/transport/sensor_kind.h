@@ -1,7 +1,8 @@
 /* A sensor kind, as the photon loop sees it: its two scoring hooks, one at
- * a scattering vertex and one at a boundary exit, what it precomputes
- * per (emitter, sensor) when a render is planned, and the axis-parallel
- * walks it makes (so the grid can tabulate them). Each kind defines one
+ * a scattering vertex and one at a boundary exit, the box of vertices
+ * the first can score from, what it precomputes per (emitter, sensor)
+ * when a render is planned, and the axis-parallel walks it makes (so the
+ * grid can tabulate them). Each kind defines one
  * hv_sensor_kind_t in its file of lib/sensors/ and sets it on the sensors
  * it creates (hv_sensor_new); transport never names a kind. Adding a kind
  * is that one file and its create function's prototype in
