@@ -22,6 +22,11 @@ static int fail(const char *prog, const char *path, const char *what, int err) {
   return -1;
 }
 
+static int not_plain(const char *prog, const char *lock, const char *what) {
+  fprintf(stderr, "%s: %s: the lock file is %s; remove it (a run writes its process id there)\n", prog, lock, what);
+  return -1;
+}
+
 /* mkdir -p, then: a folder we may write into. */
 static int make_folder(const char *prog, const char *path) {
   char buf[OUTDIR_PATH_MAX];
@@ -43,7 +48,7 @@ static int make_folder(const char *prog, const char *path) {
 }
 
 bool outdir_is_temporary(const char *name) {
-  static const char tag[] = ".tmp-";
+  static const char tag[] = ".hetinv-tmp-";
   size_t n = strlen(name), t = sizeof tag - 1;
   if (n < t + 7) return false; /* at least one character before the tag */
   if (memcmp(name + n - 6 - t, tag, t) != 0) return false;
@@ -93,8 +98,21 @@ int outdir_open(outdir_t *dir, const char *prog, const char *path) {
   if (snprintf(lock, sizeof lock, "%s/%s", path, OUTDIR_LOCK_NAME) >= (int)sizeof lock) {
     return fail(prog, path, "", ENAMETOOLONG);
   }
-  int fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  /* Never through a link: the pid written below would truncate whatever
+   * file a symbolic or hard link there named (outdir.h). */
+  int fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
+  if (fd < 0 && errno == ELOOP) return not_plain(prog, lock, "a symbolic link");
   if (fd < 0) return fail(prog, path, "cannot create the lock file " OUTDIR_LOCK_NAME, errno);
+  struct stat st;
+  if (fstat(fd, &st) != 0) {
+    int err = errno;
+    close(fd);
+    return fail(prog, lock, "", err);
+  }
+  if (!S_ISREG(st.st_mode) || st.st_nlink != 1) {
+    close(fd);
+    return not_plain(prog, lock, S_ISREG(st.st_mode) ? "a file of several hard links" : "not a regular file");
+  }
   struct flock fl;
   memset(&fl, 0, sizeof fl);
   fl.l_type = F_WRLCK;

@@ -13,12 +13,17 @@
  * deleting it would let a third run lock a new file while a second still
  * held the old one.
  *
- * Temporaries: every output file is written as "<name>.tmp-XXXXXX" (six
- * letters or digits: the library's atomic writer, and recon_text_begin)
- * and renamed over <name> once complete; a process killed in between
- * leaves that file behind. Once the folder is locked no other run writes
- * there, so every regular file of that pattern is such a leftover:
- * outdir_open and outdir_prepare remove them.
+ * Temporaries: every output file is written as "<name>.hetinv-tmp-XXXXXX"
+ * (six letters or digits: the library's atomic writer, and
+ * recon_text_begin) and renamed over <name> once complete; a process
+ * killed in between leaves that file behind. Once the folder is locked no
+ * other run of ours writes there, so every regular file of that pattern is
+ * such a leftover: outdir_open and outdir_prepare remove them. The tag
+ * names the library, so another program's temporaries (an editor's
+ * "x.tmp-Ab12Cd" in a folder given as -o .) are never matched.
+ *
+ * The lock file must be a regular file of one link: a symbolic or hard
+ * link there would make the run overwrite the file it points to.
  *
  * Failures print "<prog>: <folder or file>: <reason>" on stderr. */
 #ifndef HETINV_EXAMPLES_OUTDIR_H
@@ -46,7 +51,7 @@ void outdir_close(outdir_t *dir);
 int outdir_prepare(const char *prog, const char *path);
 
 /* true if `name` has the pattern of a temporary output file,
- * "<something>.tmp-XXXXXX" with six letters or digits. */
+ * "<something>.hetinv-tmp-XXXXXX" with six letters or digits. */
 bool outdir_is_temporary(const char *name);
 
 /* Flushes standard output and checks that everything written to it

@@ -369,7 +369,7 @@ hetinv_result_t recon_read_recovery(hetinv_context_t *ctx, const recon_scene_t *
                                     char *msg, size_t msg_size);
 
 /* A text file written whole or not at all: recon_text_begin() creates
- * "<path>.tmp-XXXXXX" (tmp receives that name; NULL with errno set on
+ * "<path>.hetinv-tmp-XXXXXX" (tmp receives that name; NULL with errno set on
  * failure), and recon_text_commit() flushes it to disk, closes it and
  * renames it over path, or removes it if anything failed (-1, errno set). */
 FILE *recon_text_begin(const char *path, char *tmp, size_t tmp_size);

@@ -1,5 +1,5 @@
 /* Small text outputs (CSV tables) written whole or not at all, as the
- * library writes its files: into "<path>.tmp-XXXXXX" (the pattern
+ * library writes its files: into "<path>.hetinv-tmp-XXXXXX" (the pattern
  * outdir.h removes when a killed run left one), renamed over <path> once
  * complete and on disk. */
 #include <errno.h>
@@ -11,7 +11,7 @@
 #include "recon.h"
 
 FILE *recon_text_begin(const char *path, char *tmp, size_t tmp_size) {
-  int n = snprintf(tmp, tmp_size, "%s.tmp-XXXXXX", path);
+  int n = snprintf(tmp, tmp_size, "%s.hetinv-tmp-XXXXXX", path);
   if (n < 0 || (size_t)n >= tmp_size) {
     errno = ENAMETOOLONG;
     return NULL;

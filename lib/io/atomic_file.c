@@ -17,7 +17,9 @@ static void release(hv_atomic_file_t *f) {
 
 hetinv_result_t hv_atomic_open(const hetinv_context_t *ctx, const char *path,
                                int want_stream, hv_atomic_file_t *f) {
-  static const char suffix[] = ".tmp-XXXXXX";
+  /* A name no other program writes: the example programs remove leftovers
+   * of exactly this pattern from their output folders (examples/common/outdir.h). */
+  static const char suffix[] = ".hetinv-tmp-XXXXXX";
   *f = (hv_atomic_file_t){.ctx = ctx, .path = path};
   size_t n = strlen(path);
   if (n == 0) return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "the path is empty");

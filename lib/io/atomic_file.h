@@ -11,7 +11,7 @@
 typedef struct hv_atomic_file {
   const hetinv_context_t *ctx;
   const char *path;  /* destination (borrowed) */
-  char *tmp_path;    /* "<path>.tmp-XXXXXX", created empty */
+  char *tmp_path;    /* "<path>.hetinv-tmp-XXXXXX", created empty */
   FILE *fp;          /* open for writing, or NULL when a library writes tmp_path itself */
 } hv_atomic_file_t;
 

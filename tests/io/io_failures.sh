@@ -8,7 +8,7 @@
 #   io_failures.sh <case> <folder of the programs> <source tree> <work folder>
 #
 # Cases (one CTest test each): unwritable, not_folder, full_disk, stdout_full,
-# text_outputs, lock, stale_temporaries. Exit status 0 pass, 1 fail, 77 skip
+# text_outputs, lock, lock_link, stale_temporaries. Exit status 0 pass, 1 fail, 77 skip
 # (a case the machine cannot stage: mounting a small file system, /dev/full).
 # Tests run as root, for whom permission bits do not deny writes, so an
 # unwritable folder is /proc (no files can be created there) or a read-only
@@ -69,7 +69,7 @@ expect_not_started() {
 
 # expect_no_temporaries <folder>
 expect_no_temporaries() {
-  left=$(find "$1" -name '*.tmp-*' 2>/dev/null)
+  left=$(find "$1" -name '*.hetinv-tmp-*' 2>/dev/null)
   if [ -n "$left" ]; then
     fail "temporary files left in $1: $left"
   fi
@@ -290,11 +290,11 @@ lock)
     wait $a
     iterations=$((iterations * 4))
   done
-  : >"$dir/planted.tmp-Ab12Cd"
+  : >"$dir/planted.hetinv-tmp-Ab12Cd"
   run b hetinv-reconstruct "$scene" --threads 1 -o "$dir" --quiet
   expect_failure b "hetinv-reconstruct: $dir: the output folder is in use by another run (process $a)"
   expect_not_started b "voxels"
-  [ -e "$dir/planted.tmp-Ab12Cd" ] || fail "the refused run removed a temporary of the running one"
+  [ -e "$dir/planted.hetinv-tmp-Ab12Cd" ] || fail "the refused run removed a temporary of the running one"
   run rd hetinv-render "$render_scene" --photons 100 --threads 1 -o "$dir"
   expect_failure rd "hetinv-render: $dir: the output folder is in use by another run"
   kill -CONT $a 2>/dev/null
@@ -306,15 +306,33 @@ lock)
   [ "$rc" -eq 0 ] || fail "a --resume run after the first failed: $(cat "$work/c.err")"
   ;;
 
+lock_link)
+  # A lock file that links elsewhere (planted in a shared folder, say) is
+  # refused before any simulation, and the file it names keeps its bytes:
+  # the run would otherwise write its process id over it.
+  echo "precious" >"$work/target"
+  for kind in symbolic hard; do
+    dir=$work/$kind
+    mkdir -p "$dir"
+    if [ $kind = symbolic ]; then ln -s "$work/target" "$dir/.hetinv.lock"; else ln "$work/target" "$dir/.hetinv.lock"; fi
+    run $kind hetinv-render "$render_scene" --photons 100 --threads 1 -o "$dir"
+    expect_failure $kind "hetinv-render: $dir/.hetinv.lock: the lock file is a"
+    expect_not_started $kind "R_"
+    [ "$(cat "$work/target")" = "precious" ] || fail "$kind: the file the lock file links to was overwritten"
+  done
+  ;;
+
 stale_temporaries)
   # Files of the writers' temporary pattern, left by a killed run, are gone
-  # after the next run; other names are kept.
+  # after the next run; other names are kept, another program's temporaries
+  # (mkstemp's ".tmp-XXXXXX" without the library's tag) among them.
   for p in reconstruct render demo; do
     dir=$work/$p
-    mkdir -p "$dir/kept.tmp-ABCDEF"
-    : >"$dir/checkpoint.bin.tmp-Ab12Cd"
-    : >"$dir/maps.exr.tmp-zz9ZZ9"
-    : >"$dir/notes.tmp-12345"
+    mkdir -p "$dir/kept.hetinv-tmp-ABCDEF"
+    : >"$dir/checkpoint.bin.hetinv-tmp-Ab12Cd"
+    : >"$dir/maps.exr.hetinv-tmp-zz9ZZ9"
+    : >"$dir/notes.hetinv-tmp-12345"
+    : >"$dir/thesis.tex.tmp-Ab12Cd"
     : >"$dir/notes.txt"
     case $p in
       reconstruct) run $p hetinv-reconstruct "$scene" --threads 1 -o "$dir" --quiet ;;
@@ -322,10 +340,10 @@ stale_temporaries)
       demo) run $p hetinv-medium-demo "$dir" ;;
     esac
     [ "$rc" -eq 0 ] || fail "$p: exit status $rc: $(cat "$work/$p.err")"
-    for f in checkpoint.bin.tmp-Ab12Cd maps.exr.tmp-zz9ZZ9; do
+    for f in checkpoint.bin.hetinv-tmp-Ab12Cd maps.exr.hetinv-tmp-zz9ZZ9; do
       [ ! -e "$dir/$f" ] || fail "$p: the stale temporary $f is still there"
     done
-    for f in kept.tmp-ABCDEF notes.tmp-12345 notes.txt; do
+    for f in kept.hetinv-tmp-ABCDEF notes.hetinv-tmp-12345 thesis.tex.tmp-Ab12Cd notes.txt; do
       [ -e "$dir/$f" ] || fail "$p: $f was removed (not a temporary of the writers)"
     done
   done

@@ -171,7 +171,7 @@ static void check_no_temporaries(const char *dir) {
   CHECK(d != NULL);
   if (d == NULL) return;
   for (struct dirent *e; (e = readdir(d)) != NULL;) {
-    if (strstr(e->d_name, ".tmp-") != NULL) {
+    if (strstr(e->d_name, ".hetinv-tmp-") != NULL) {
       print_error("%s, allocation %ld failing: temporary file %s left behind\n", current_scenario,
                   current_n, e->d_name);
       ++check_failures;

@@ -72,7 +72,7 @@ static void assert_only_checkpoints_left(int expected) {
   assert_int_equal(ht_tmpdir_entry_count(), expected);
   DIR *d = opendir(ht_path("."));
   assert_non_null(d);
-  for (struct dirent *e; (e = readdir(d)) != NULL;) assert_null(strstr(e->d_name, ".tmp-"));
+  for (struct dirent *e; (e = readdir(d)) != NULL;) assert_null(strstr(e->d_name, ".hetinv-tmp-"));
   closedir(d);
 }
 
