@@ -306,6 +306,23 @@ HETINV_API hetinv_result_t hetinv_sensor_create_orthographic(
                    "width x height is %d x %d pixels; at most HETINV_MAX_SENSOR_PIXELS (%ld) in all",
                    (int)width, (int)height, (long)HETINV_MAX_SENSOR_PIXELS);
   }
+  /* A value is power per pixel area: an area that underflows to 0 or
+   * overflows would make every value inf or 0 with no error. */
+  double area = pixel_size[0] * pixel_size[1];
+  if (!(isnormal(area) && isnormal(1.0 / area))) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                   "pixel_size is %g x %g: its area %g is not a normal double with a normal reciprocal "
+                   "(about 1e-308 to 1e308); choose a unit in which pixels are nearer 1",
+                   pixel_size[0], pixel_size[1], area);
+  }
+  for (int i = 0; i < 2; ++i) {
+    double extent = (i == 0 ? width : height) * pixel_size[i];
+    if (!isfinite(origin[i] + extent)) {
+      return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
+                     "origin[%d] + %s x pixel_size[%d] is %g + %d x %g, which is not finite", i,
+                     i == 0 ? "width" : "height", i, origin[i], (int)(i == 0 ? width : height), pixel_size[i]);
+    }
+  }
   hetinv_sensor_t *s = NULL;
   hetinv_result_t r = hv_sensor_new(medium, &ORTHOGRAPHIC, face, sizeof(ortho_t), &s);
   if (r != HETINV_SUCCESS) return r;

@@ -704,6 +704,27 @@ static void orthographic_sensor_rejects_non_positive_pixel_sizes(void **state) {
   hetinv_medium_destroy(&m);
 }
 
+/* Values are per pixel area: an area (or its reciprocal) out of double's
+ * normal range would make them inf or 0 without an error. */
+static void orthographic_sensor_rejects_a_pixel_area_out_of_range(void **state) {
+  hetinv_medium_t *m = make_medium(*state, 1, 1);
+  const double d[3] = {0, 0, 1}, o[2] = {0, 0};
+  hetinv_sensor_t *s = sensor_sentinel();
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_sensor_create_orthographic(
+                                                   m, HETINV_FACE_Z_MAX, d, o, (double[]){1e-170, 1e-170}, 4, 4, &s));
+  assert_message_contains("pixel_size is 1e-170 x 1e-170: its area 0 is not a normal double");
+  assert_null(s);
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_sensor_create_orthographic(
+                                                   m, HETINV_FACE_Z_MAX, d, o, (double[]){1e200, 1e200}, 1, 1, &s));
+  assert_message_contains("its area inf");
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_sensor_create_orthographic(
+                                                   m, HETINV_FACE_Z_MAX, d, o, (double[]){1e308, 1e-300}, 2, 1, &s));
+  assert_message_contains("origin[0] + width x pixel_size[0] is 0 + 2 x 1e+308, which is not finite");
+  assert_ok(hetinv_sensor_create_orthographic(m, HETINV_FACE_Z_MAX, d, o, (double[]){1e-150, 1e-150}, 1, 1, &s));
+  hetinv_sensor_destroy(&s);
+  hetinv_medium_destroy(&m);
+}
+
 static void orthographic_sensor_rejects_a_non_finite_origin(void **state) {
   hetinv_medium_t *m = make_medium(*state, 1, 1);
   hetinv_sensor_t *s = sensor_sentinel();
@@ -1021,6 +1042,7 @@ int main(void) {
       cmocka_unit_test(orthographic_sensor_rejects_null_arguments),
       cmocka_unit_test(orthographic_sensor_rejects_an_unknown_face),
       cmocka_unit_test(orthographic_sensor_rejects_a_direction_into_the_medium),
+      cmocka_unit_test(orthographic_sensor_rejects_a_pixel_area_out_of_range),
       cmocka_unit_test(orthographic_sensor_rejects_a_direction_along_its_face),
       cmocka_unit_test(orthographic_sensor_rejects_a_zero_or_non_finite_direction),
       cmocka_unit_test(orthographic_sensor_rejects_a_direction_beyond_the_critical_angle),
