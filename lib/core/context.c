@@ -1,3 +1,4 @@
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdlib.h>
 
@@ -14,6 +15,8 @@
  * struct must cover at least these. Later members are read only when
  * init->size says the caller's struct has them. */
 #define HV_INIT_V1_SIZE (offsetof(hetinv_context_init_t, seed) + sizeof(uint64_t))
+
+static atomic_uint_fast64_t next_serial = 1; /* hetinv_context_t's serial */
 
 HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *init,
                                                  hetinv_context_t **out) {
@@ -47,6 +50,7 @@ HETINV_API hetinv_result_t hetinv_context_create(const hetinv_context_init_t *in
       .error_user_data = opts.error_user_data,
       .thread_count = opts.thread_count,
       .seed = opts.seed,
+      .serial = atomic_fetch_add(&next_serial, 1),
   };
   if (proto.thread_count == 0) {
 #ifdef _OPENMP

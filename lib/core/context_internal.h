@@ -19,6 +19,10 @@ struct hetinv_context {
   /* Which process of a distributed run this context is (core/comm.h):
    * 0 of 1 unless an MPI communicator is attached. */
   int32_t rank, rank_count;
+  /* Unique among the process's contexts (never 0): a context created where
+   * a destroyed one lay is told apart from it by the thread's last-failure
+   * record (core/error.c), which would otherwise match by address alone. */
+  uint64_t serial;
 #ifdef HETINV_WITH_MPI
   MPI_Comm comm; /* the library's own dup, or MPI_COMM_NULL */
 #endif

@@ -1,5 +1,6 @@
 /* Context creation, allocator hooks, error reporting per thread. */
 #include <pthread.h>
+#include <stddef.h>
 #include <stdlib.h>
 
 #include "test_support.h"
@@ -204,6 +205,40 @@ static void messages_belong_to_their_context(void **state) {
   hetinv_context_destroy(&b);
 }
 
+/* An allocator that always hands out the same block, so the second context
+ * lies exactly where the first one did. */
+static _Alignas(max_align_t) unsigned char one_block[4096];
+static void *same_block_alloc(void *user, size_t size) {
+  (void)user;
+  return size <= sizeof one_block ? one_block : NULL;
+}
+static void same_block_free(void *user, void *ptr) {
+  (void)user;
+  (void)ptr;
+}
+
+static void a_new_context_where_a_destroyed_one_lay_has_no_failure(void **state) {
+  (void)state;
+  hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
+  init.alloc_fn = same_block_alloc;
+  init.free_fn = same_block_free;
+  hetinv_context_t *a = NULL, *b = NULL;
+  assert_ok(hetinv_context_create(&init, &a));
+  hetinv_medium_t *m = NULL;
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT,
+                hetinv_medium_create(a, (double[]){0, 0, 0}, (double[]){0, 1, 1}, (int32_t[]){1, 1, 1}, &m));
+  const void *where = a;
+  hetinv_context_destroy(&a);
+  assert_ok(hetinv_context_create(&init, &b));
+  assert_ptr_equal(b, where);
+  assert_string_equal(hetinv_context_last_error_message(b), "");
+  assert_int_equal(hetinv_context_last_error_code(b), HETINV_SUCCESS);
+  assert_int_equal(hetinv_context_last_error_rank(b), -1);
+  /* Without a context the thread's last failure is still there. */
+  assert_int_equal(hetinv_context_last_error_code(NULL), HETINV_ERROR_INVALID_ARGUMENT);
+  hetinv_context_destroy(&b);
+}
+
 static void *fail_on_other_thread(void *arg) {
   hetinv_context_t *ctx = arg;
   hetinv_medium_t *m = NULL;
@@ -237,6 +272,7 @@ int main(void) {
       cmocka_unit_test(allocation_failure_is_reported),
       cmocka_unit_test(error_callback_receives_code_and_message),
       cmocka_unit_test(messages_belong_to_their_context),
+      cmocka_unit_test(a_new_context_where_a_destroyed_one_lay_has_no_failure),
       cmocka_unit_test_setup_teardown(messages_are_per_thread, ht_context_setup,
                                       ht_context_teardown),
   };
