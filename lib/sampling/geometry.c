@@ -12,6 +12,21 @@ void hv_geometry_of(const hetinv_medium_t *medium, hv_geometry_t *out) {
   out->eta_out = medium->eta_out;
 }
 
+const char *hv_geometry_first_difference(const hv_geometry_t *a, const hv_geometry_t *b, double *va, double *vb) {
+  static const char *const names[8] = {"box_min[x]", "box_min[y]", "box_min[z]", "box_max[x]",
+                                       "box_max[y]", "box_max[z]", "eta (inside)", "eta (outside)"};
+  const double av[8] = {a->lo[0], a->lo[1], a->lo[2], a->hi[0], a->hi[1], a->hi[2], a->eta, a->eta_out};
+  const double bv[8] = {b->lo[0], b->lo[1], b->lo[2], b->hi[0], b->hi[1], b->hi[2], b->eta, b->eta_out};
+  for (int i = 0; i < 8; ++i) {
+    if (av[i] != bv[i]) {
+      *va = av[i];
+      *vb = bv[i];
+      return names[i];
+    }
+  }
+  return NULL;
+}
+
 hetinv_result_t hv_check_face(const hetinv_context_t *ctx, hetinv_face_t face) {
   if (face >= HETINV_FACE_X_MIN && face <= HETINV_FACE_Z_MAX) return HETINV_SUCCESS;
   return HV_FAIL(ctx, HETINV_ERROR_OUT_OF_RANGE,

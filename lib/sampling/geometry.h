@@ -16,6 +16,12 @@ typedef struct hv_geometry {
 
 void hv_geometry_of(const hetinv_medium_t *medium, hv_geometry_t *out);
 
+/* The first of the box's six coordinates and two indices in which a and b
+ * differ ("box_max[z]", "eta (outside)"), with a's and b's values; NULL
+ * if none. Messages print the pair with %.17g: boxes read from float32
+ * files differ from typed ones past %g's six digits. */
+const char *hv_geometry_first_difference(const hv_geometry_t *a, const hv_geometry_t *b, double *va, double *vb);
+
 static inline bool hv_geometry_equal(const hv_geometry_t *a, const hv_geometry_t *b) {
   for (int i = 0; i < 3; ++i) {
     if (a->lo[i] != b->lo[i] || a->hi[i] != b->hi[i]) return false; /* -0 == +0 */

@@ -86,10 +86,12 @@ HETINV_API hetinv_result_t hetinv_measurements_add(hetinv_measurements_t *set,
   const char *odd = !hv_geometry_equal(ref, &emitter->geo) ? "emitter"
                     : !hv_geometry_equal(ref, &sensor->geo) ? "sensor" : NULL;
   if (odd != NULL) {
+    double mine, theirs;
+    const char *what = hv_geometry_first_difference(odd[0] == 'e' ? &emitter->geo : &sensor->geo, ref, &mine, &theirs);
     return HV_FAIL(set->ctx, HETINV_ERROR_INVALID_ARGUMENT,
                    "the %s was created from a medium whose box or refractive indices differ "
-                   "from those of %s; a measurement set must not mix media", odd,
-                   set->row_count > 0 ? "the set's earlier rows" : "the row's emitter");
+                   "from those of %s (%s %.17g against %.17g); a measurement set must not mix media", odd,
+                   set->row_count > 0 ? "the set's earlier rows" : "the row's emitter", what, mine, theirs);
   }
   if (set->row_count >= HETINV_MAX_MEASUREMENT_ROWS) {
     return HV_FAIL(set->ctx, HETINV_ERROR_INVALID_ARGUMENT,
@@ -291,11 +293,14 @@ hetinv_result_t hv_measurements_check_medium(const hetinv_context_t *ctx, const 
                                              const hetinv_medium_t *medium) {
   hv_geometry_t geo;
   hv_geometry_of(medium, &geo);
-  if (hv_geometry_equal(&geo, &set->geo)) return HETINV_SUCCESS;
+  double mine, theirs;
+  const char *what = hv_geometry_first_difference(&geo, &set->geo, &mine, &theirs);
+  if (what == NULL) return HETINV_SUCCESS;
   return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
                  "the medium's box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g differs from "
-                 "the box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g the set was made for",
+                 "the box [%g, %g] x [%g, %g] x [%g, %g] with eta %g / %g the set was made for "
+                 "(its %s is %.17g, the set's %.17g)",
                  geo.lo[0], geo.hi[0], geo.lo[1], geo.hi[1], geo.lo[2], geo.hi[2], geo.eta, geo.eta_out,
                  set->geo.lo[0], set->geo.hi[0], set->geo.lo[1], set->geo.hi[1], set->geo.lo[2], set->geo.hi[2],
-                 set->geo.eta, set->geo.eta_out);
+                 set->geo.eta, set->geo.eta_out, what, mine, theirs);
 }

@@ -464,7 +464,16 @@ static void render_rejects_a_medium_with_another_box(void **state) {
   double v[SCENE_VALUES];
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_render(est, other, s.set, v, NULL, NULL, s.count));
   assert_message_contains("the medium's box [0, 10] x [0, 12] x [0, 10] with eta 1.4 / 1 differs from "
-                          "the box [0, 10] x [0, 10] x [0, 10] with eta 1.4 / 1 the set was made for");
+                          "the box [0, 10] x [0, 10] x [0, 10] with eta 1.4 / 1 the set was made for "
+                          "(its box_max[y] is 12, the set's 10)");
+  hetinv_medium_destroy(&other);
+  /* A difference past %g's six digits (a box read from float32) is named
+   * with all its digits, not printed as two equal-looking boxes. */
+  assert_ok(hetinv_medium_create(*state, box_min, (double[]){10, 10, 10.000001}, (int32_t[]){2, 2, 2}, &other));
+  assert_ok(hetinv_medium_set_ior(other, 1.4, 1.0));
+  assert_ok(hetinv_medium_commit(other));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_render(est, other, s.set, v, NULL, NULL, s.count));
+  assert_message_contains("(its box_max[z] is 10.000000999999999, the set's 10)");
   hetinv_estimator_destroy(&est);
   hetinv_medium_destroy(&other);
   scene_release(&s);
@@ -480,7 +489,8 @@ static void render_rejects_a_medium_with_other_indices(void **state) {
   hetinv_estimator_t *est = make_estimator(*state, 10);
   double v[SCENE_VALUES];
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_estimator_render(est, other, s.set, v, NULL, NULL, s.count));
-  assert_message_contains("with eta 1.33 / 1 differs from the box [0, 10] x [0, 10] x [0, 10] with eta 1.4 / 1");
+  assert_message_contains("with eta 1.33 / 1 differs from the box [0, 10] x [0, 10] x [0, 10] with eta 1.4 / 1 "
+                          "the set was made for (its eta (inside) is 1.3300000000000001, the set's 1.3999999999999999)");
   hetinv_estimator_destroy(&est);
   hetinv_medium_destroy(&other);
   scene_release(&s);
