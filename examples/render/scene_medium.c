@@ -120,16 +120,30 @@ static int build_uniform(scene_t *sc, jr_t *jr, const cJSON *medium, const cJSON
 }
 
 /* Is every interior layer boundary (fractions f[0..count-1] of the depth) on
- * a voxel boundary of nz voxels? Sets *bad to the first one that is not. */
-static int aligned(const double *f, int count, int32_t nz, int *bad) {
-  for (int k = 0; k < count; ++k) {
-    double x = f[k] * nz;
-    if (fabs(x - floor(x + 0.5)) > 1e-6) {
-      *bad = k;
-      return 0;
-    }
+ * a voxel boundary of nz voxels, and every layer at least one voxel thick?
+ * The tolerance is a millionth of a voxel, so a layer thinner than that
+ * would otherwise pass with no voxel of its own and vanish from the
+ * medium. Sets *bad to the first boundary that is off (*empty 0), or to
+ * the first layer left without a voxel (*empty 1). */
+static int aligned(const double *f, int count, int32_t nz, int *bad, int *empty) {
+  double below = 0.0; /* the last boundary's voxel index */
+  for (int k = 0; k <= count; ++k) {
+    double x = k < count ? f[k] * nz : nz;
+    double at = floor(x + 0.5);
+    *bad = k;
+    *empty = 0;
+    if (k < count && fabs(x - at) > 1e-6) return 0;
+    *empty = 1;
+    if (!(at > below)) return 0;
+    below = at;
   }
   return 1;
+}
+
+static double thinnest(const double *thick, int count) {
+  double t = thick[0];
+  for (int k = 1; k < count; ++k) t = fmin(t, thick[k]);
+  return t;
 }
 
 static int build_layers(scene_t *sc, jr_t *jr, const cJSON *medium, const cJSON *layers,
@@ -181,20 +195,27 @@ static int build_layers(scene_t *sc, jr_t *jr, const cJSON *medium, const cJSON 
     frac[k] = cum / total;
   }
   sc->dims[0] = sc->dims[1] = 1;
-  int bad = 0, r = read_dims(jr, medium, sc->dims);
+  int bad = 0, empty = 0, r = read_dims(jr, medium, sc->dims);
   if (r < 0) goto done;
-  if (r == 1 && !aligned(frac, count - 1, sc->dims[2], &bad)) {
-    jr_fail(jr, "medium.dims", "nz = %d puts no voxel boundary at the boundary between "
-            "medium.layers[%d] and [%d]; choose nz so that every layer is a whole number of "
-            "voxels thick (or leave \"dims\" out)", (int)sc->dims[2], bad, bad + 1);
+  if (r == 1 && !aligned(frac, count - 1, sc->dims[2], &bad, &empty)) {
+    if (empty) {
+      jr_fail(jr, "medium.dims", "nz = %d leaves medium.layers[%d] (counted from %s) without a voxel of its own; "
+              "choose nz so that every layer is a whole number of voxels thick (or leave \"dims\" out)",
+              (int)sc->dims[2], bad, from_top ? "z_max" : "z_min");
+    } else {
+      jr_fail(jr, "medium.dims", "nz = %d puts no voxel boundary at the boundary between "
+              "medium.layers[%d] and [%d]; choose nz so that every layer is a whole number of "
+              "voxels thick (or leave \"dims\" out)", (int)sc->dims[2], bad, bad + 1);
+    }
     goto done;
   }
   if (r == 0) { /* the coarsest grid whose voxel boundaries include the layer boundaries */
     int32_t nz = 1;
-    while (nz <= 100000 && !aligned(frac, count - 1, nz, &bad)) ++nz;
+    while (nz <= 100000 && !aligned(frac, count - 1, nz, &bad, &empty)) ++nz;
     if (nz > 100000) {
       jr_fail(jr, "medium.layers", "no grid of up to 100000 voxels along z has a voxel "
-              "boundary at every layer boundary; give \"dims\" explicitly");
+              "boundary at every layer boundary and a voxel in every layer (the thinnest is %.3g of "
+              "the depth); give \"dims\" explicitly", thinnest(thick, count) / total);
       goto done;
     }
     sc->dims[2] = nz;
