@@ -346,6 +346,15 @@ static int paint_inclusions(scene_t *sc, jr_t *jr, const cJSON *medium, grids_t 
     if (!given[0] && !given[1] && !given[2]) {
       return jr_fail(jr, at, "sets none of \"sigma_a\", \"sigma_s\", \"g\"");
     }
+    /* The weights divide by 2 radius²: out of double's normal range it
+     * makes 0/0 at the centre or inf/inf far out, NaN values the library
+     * would then blame on the medium. */
+    if (!isnormal(2.0 * radius * radius)) {
+      char key[JR_PATH_MAX];
+      jr_key(key, at, "radius");
+      return jr_fail(jr, key, "is %g; 2 radius² must lie in double's normal range (a radius from "
+                     "about 1e-154 to 1e154): choose a length unit nearer the medium's size", radius);
+    }
     for (int32_t iz = 0; iz < sc->dims[2]; ++iz) {
       for (int32_t iy = 0; iy < sc->dims[1]; ++iy) {
         for (int32_t ix = 0; ix < sc->dims[0]; ++ix) {
