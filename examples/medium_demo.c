@@ -42,6 +42,11 @@ static double blobs(double x, double y, const double blob[2][3], double lo, doub
 
 int main(int argc, char **argv) {
   const char *dir = argc > 1 ? argv[1] : "out/demo";
+  if (argc == 2 && (strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "--help") == 0)) {
+    printf("hetinv-medium-demo: a Fig. 4-like medium written as .vol files, read back, and its section as EXR and PNG\n"
+           "usage: %s [output-folder]   (default out/demo)\n", argv[0]);
+    return 0;
+  }
   if (argc > 2 || (argc == 2 && argv[1][0] == '-')) {
     fprintf(stderr, "usage: %s [output-folder]\n", argv[0]);
     return 2;

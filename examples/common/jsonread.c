@@ -7,6 +7,7 @@
 #include <fcntl.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -298,10 +299,35 @@ static int read_file(jr_t *jr, const char *path, char **out) {
   return 0;
 }
 
+/* How many arrays and objects are open at end (strings skipped). */
+static long nesting_at(const char *text, const char *end) {
+  long depth = 0;
+  bool in_string = false;
+  for (const char *p = text; p < end && *p != '\0'; ++p) {
+    if (in_string) {
+      if (*p == '\\' && p[1] != '\0') ++p;
+      else if (*p == '"') in_string = false;
+    } else if (*p == '"') {
+      in_string = true;
+    } else if (*p == '[' || *p == '{') {
+      ++depth;
+    } else if (*p == ']' || *p == '}') {
+      --depth;
+    }
+  }
+  return depth;
+}
+
 /* "<file>:<line>:<column>: JSON syntax error near ..." for a parse failure at end. */
 static int syntax_error(jr_t *jr, const char *text, const char *end) {
   int line = 1, column = 1;
   if (end == NULL) end = text;
+  if (nesting_at(text, end) >= CJSON_NESTING_LIMIT) {
+    /* Valid JSON, but cJSON stops parsing at that depth. */
+    snprintf(jr->message, sizeof jr->message, "%s: arrays and objects are nested more than %d deep; the reader "
+             "stops there (no scene needs that many)", jr->file, CJSON_NESTING_LIMIT);
+    return -1;
+  }
   for (const char *p = text; p < end && *p != '\0'; ++p) {
     if (*p == '\n') {
       ++line;

@@ -10,8 +10,9 @@
 #include "hetinv/bound.h"
 #include "polish.h"
 
-static int usage(const char *what) {
-  fprintf(stderr,
+/* --help prints to stdout (for a pager), a usage error to stderr. */
+static void print_usage(FILE *to, const char *what) {
+  fprintf(to,
           "hetinv-fig4: %s\n"
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
@@ -30,6 +31,10 @@ static int usage(const char *what) {
           "                   [--polish-fisher R] [--polish-fisher-photons N]\n"
           "                   [--polish-damping D] [--polish-max-step S] [--polish-cg N]\n",
           what);
+}
+
+static int usage(const char *what) {
+  print_usage(stderr, what);
   return 2;
 }
 
@@ -270,7 +275,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
         return usage(msg);
       }
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
-      usage("the paper's Fig. 4: imaging configurations compared on random volumes");
+      print_usage(stdout, "the paper's Fig. 4: imaging configurations compared on random volumes");
       return 1;
     } else {
       char msg[300];

@@ -57,8 +57,9 @@
 #include <mpi.h>
 #endif
 
-static int usage(const char *what) {
-  fprintf(recon_err(),
+/* --help prints to stdout (for a pager), a usage error to stderr. */
+static void print_usage(FILE *to, const char *what) {
+  fprintf(to,
           "hetinv-reconstruct: %s\n"
           "usage: hetinv-reconstruct [scene.json] [-o DIR] [--resume] [--quiet]\n"
           "                          [--threads N] [--iterations N] [--photons N]\n"
@@ -68,6 +69,10 @@ static int usage(const char *what) {
           "                          [--gradient-check N]\n"
           "Without a scene, runs the built-in reduced Fig. 4 scene.\n",
           what);
+}
+
+static int usage(const char *what) {
+  print_usage(recon_err(), what);
   return 2;
 }
 
@@ -151,7 +156,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
     } else if (strcmp(a, "--fit-replicates") == 0) {
       if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 2, 1000, &fit_replicates) < 0) return 2;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
-      usage("recover sigma_a, sigma_s and g from boundary measurements");
+      print_usage(stdout, "recover sigma_a, sigma_s and g from boundary measurements");
       return 0;
     } else if (a[0] == '-') {
       char msg[300];
