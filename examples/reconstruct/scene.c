@@ -177,6 +177,9 @@ static int read_medium(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
     sc->grid[a] = (int32_t)g[a];
   }
   if (jr_number(jr, o, "medium", "eta", JR_OPTIONAL, &sc->eta) < 0) return -1;
+  if (!(sc->eta > 0.0 && isfinite(sc->eta))) { /* hetinv_medium_set_ior's rule, named here */
+    return jr_fail(jr, "medium.eta", "is %g; it must be finite and > 0", sc->eta);
+  }
   return 0;
 }
 
@@ -442,10 +445,15 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_positive(jr, o, "optimizer", "learning_rate", JR_OPTIONAL, &sc->learning_rate) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "beta1", JR_OPTIONAL, &sc->beta1) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "beta2", JR_OPTIONAL, &sc->beta2) < 0) return -1;
-  /* Adam's decays within the library's own bounds: refused here, before the
-   * data are simulated, not when the optimizer is configured. */
+  if (jr_number(jr, o, "optimizer", "time_budget", JR_OPTIONAL, &sc->time_budget) < 0) return -1;
+  /* The decays and the budget within the library's own bounds: refused
+   * here, naming the key, before the data are simulated, not when the
+   * optimizer is configured. */
   const struct { const char *name; hetinv_optimizer_param_t param; double value; } decays[] = {
-      {"optimizer.beta1", HETINV_OPTIMIZER_BETA1, sc->beta1}, {"optimizer.beta2", HETINV_OPTIMIZER_BETA2, sc->beta2}};
+      {"optimizer.decay", HETINV_OPTIMIZER_DECAY, sc->decay},
+      {"optimizer.beta1", HETINV_OPTIMIZER_BETA1, sc->beta1},
+      {"optimizer.beta2", HETINV_OPTIMIZER_BETA2, sc->beta2},
+      {"optimizer.time_budget", HETINV_OPTIMIZER_TIME_BUDGET, sc->time_budget}};
   for (size_t i = 0; i < sizeof decays / sizeof decays[0]; ++i) {
     double lo = 0.0, hi = 0.0;
     hetinv_optimizer_param_bounds(decays[i].param, &lo, &hi);
@@ -455,7 +463,6 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   }
   if (read_int32(jr, o, "optimizer", "average_window", 0, 4096, &sc->average_window) < 0) return -1;
   if (read_int32(jr, o, "optimizer", "coarse_average_window", 0, 4096, &sc->coarse_average_window) < 0) return -1;
-  if (jr_number(jr, o, "optimizer", "time_budget", JR_OPTIONAL, &sc->time_budget) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "smoothness", JR_OPTIONAL, &sc->smoothness) < 0) return -1;
   if (!(sc->smoothness >= 0.0 && sc->smoothness <= 1e12)) {
     return jr_fail(jr, "optimizer.smoothness", "is %g; expected a number from 0 (no prior) to 1e12", sc->smoothness);
@@ -583,7 +590,13 @@ static int parse_root(jr_t *jrp, cJSON *root, recon_scene_t *sc, char *msg, size
   if (rc == 0) rc = read_optimizer(&jr, root, sc);
   if (rc != 0) snprintf(msg, msg_size, "%s", jr.message);
   cJSON_Delete(root);
-  if (rc == 0) rc = recon_scene_check(sc, msg, msg_size);
+  if (rc == 0 && recon_scene_check(sc, msg, msg_size) < 0) {
+    /* The check names the key; the file that holds it goes in front. */
+    char key_msg[sizeof jr.message];
+    snprintf(key_msg, sizeof key_msg, "%s", msg);
+    snprintf(msg, msg_size, "%s: %s", jr.file, key_msg);
+    rc = -1;
+  }
   return rc < 0 ? -1 : 0;
 }
 
@@ -596,6 +609,13 @@ int recon_scene_check(const recon_scene_t *sc, char *msg, size_t n) {
     return -1;
   }
   for (int p = 0; p < 3; ++p) {
+    /* hetinv_optimizer_set_bounds's rule, named here. */
+    const double lo = sc->bounds_lo[p], hi = sc->bounds_hi[p];
+    if (p == HETINV_PARAM_G ? !(lo > -1.0 && hi < 1.0) : !(lo >= 0.0 && isfinite(lo))) {
+      snprintf(msg, n, "optimizer.bounds.%s: [%g, %g]; expected lo < hi %s", PARAM_KEYS[p], lo, hi,
+               p == HETINV_PARAM_G ? "inside (-1, 1)" : "with 0 <= lo < +inf");
+      return -1;
+    }
     if (!(sc->bounds_lo[p] < sc->bounds_hi[p]) || sc->init[p] < sc->bounds_lo[p] || sc->init[p] > sc->bounds_hi[p]) {
       snprintf(msg, n, "optimizer: %s starts at %g, outside its bounds [%g, %g] (or the bounds are empty)",
                PARAM_KEYS[p], sc->init[p], sc->bounds_lo[p], sc->bounds_hi[p]);
