@@ -172,13 +172,17 @@ int recon_files_load(hetinv_context_t *ctx, recon_scene_t *sc, recon_imaging_t *
   im->files_release = release_scene;
   jr_t jr;
   memset(&jr, 0, sizeof jr);
-  if (scene_load(scene, sc->render_scene, &jr) < 0) {
-    snprintf(msg, msg_size, "%s", jr.message);
-    return -1;
+  /* The render scene's own messages name its file and key; the note says
+   * why that file was read (a mistyped acquisition.render_scene may name
+   * the reconstruction scene itself). */
+  bool failed = scene_load(scene, sc->render_scene, &jr) < 0;
+  if (!failed) {
+    scene->geometry_only = 1; /* the medium's values (the truth, if any) are never read */
+    failed = scene_build(scene, ctx, &jr) < 0;
   }
-  scene->geometry_only = 1; /* the medium's values (the truth, if any) are never read */
-  if (scene_build(scene, ctx, &jr) < 0) {
-    snprintf(msg, msg_size, "%s", jr.message);
+  if (failed) {
+    snprintf(msg, msg_size, "%s (the file acquisition.render_scene names, read as a render scene: docs/scene-format.md)",
+             jr.message);
     return -1;
   }
   if (check_rows(scene, msg, msg_size) < 0) return -1;
