@@ -176,7 +176,8 @@ HETINV_API uint64_t hetinv_context_seed(const hetinv_context_t *ctx);
  * @param ctx the context the failing call was made on, or NULL for the last
  *        failure on this thread whatever its context (use NULL after a failed
  *        hetinv_context_create). If the thread's last failure belongs to
- *        another context, the result is "".
+ *        another context, the result is "" (a destroyed one included, even
+ *        where the new context was allocated at its address).
  * @return a string owned by the library, valid until the next failing call
  *         on this thread; never NULL ("" when there was no failure).
  * Thread-safe: each thread has its own message.
