@@ -246,7 +246,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
       fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
       status = 1;
     } else if (sc.has_truth && recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
-      status = recon_fail("hetinv-reconstruct", ctx, "truth");
+      status = recon_fail("hetinv-reconstruct", ctx, "truth.vol");
     }
   } else if (recon_truth_create(ctx, &sc, &truth) != HETINV_SUCCESS) {
     status = recon_fail("hetinv-reconstruct", ctx, "ground truth");
