@@ -83,7 +83,7 @@ static void print_usage(FILE *f) {
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
           "novel view and light.\n"
-          "  --full          %d^3 grid, 768 sources (about 12 minutes on one thread);\n"
+          "  --full          %d^3 grid, 768 sources (about 6 minutes on one thread);\n"
           "                  default: reduced %d^3 grid, 108 sources (a few minutes)\n"
           "  --grid N        an N^3 grid (N >= 2; for tests and experiments)\n"
           "  -o DIR          output directory (default out/fig5)\n"

@@ -63,7 +63,7 @@ typedef int32_t hetinv_estimator_param_t;
 
 /** Estimator tunables; see hetinv_estimator_param_bounds(). Pinned values. */
 enum hetinv_estimator_param_id {
-  /** Photons traced per emitter (default 100000; an integer ≥ 1). */
+  /** Photons traced per emitter (default 100000; an integer in [1, 2^48 − 1]). */
   HETINV_ESTIMATOR_PHOTONS = 0,
   /** Batches the photons of each emitter are split into, for standard errors
    *  and parallel work (default 64; integer in [2, 65536]; capped at the
@@ -74,7 +74,7 @@ enum hetinv_estimator_param_id {
    *  emitter's power, falls below this (default 1e-4; [0, 1]; 0 disables
    *  roulette). */
   HETINV_ESTIMATOR_ROULETTE_WEIGHT = 2,
-  /** Probability that a photon survives a roulette (default 0.1; (0, 1]). */
+  /** Probability that a photon survives a roulette (default 0.1; [1e-6, 1]). */
   HETINV_ESTIMATOR_ROULETTE_SURVIVAL = 3,
   /** Only light scattered at least this many times contributes (default 0). */
   HETINV_ESTIMATOR_MIN_SCATTERING = 4,

@@ -80,23 +80,23 @@ typedef int32_t hetinv_optimizer_param_t;
 enum hetinv_optimizer_param_id {
   /** The method, an enum hetinv_optimizer_method_id (default ADADELTA). */
   HETINV_OPTIMIZER_METHOD = 0,
-  /** ADADELTA's decay rate γ (default 0.95; [0, 1)). */
+  /** ADADELTA's decay rate γ (default 0.95; [0, 0.999999]). */
   HETINV_OPTIMIZER_DECAY = 1,
   /** ADADELTA's ε, relative: ε_k = (EPSILON · s_k)², so the first step
    *  moves an entry by EPSILON · s_k / sqrt(1 − DECAY) (about 4.5 EPSILON of
    *  its box width with the default DECAY). Once the gradient is mostly
    *  Monte Carlo noise the steps settle at a few EPSILON · s_k, so a
    *  smaller value gives a steadier result but a slower start
-   *  (hetinv-reconstruct uses 0.003) (default 0.01; (0, 1]). */
+   *  (hetinv-reconstruct uses 0.003) (default 0.01; [1e-12, 1]). */
   HETINV_OPTIMIZER_EPSILON = 2,
-  /** Step size of SGD, AdaGrad and Adam (default 0.01; (0, 1e12]). A
+  /** Step size of SGD, AdaGrad and Adam (default 0.01; [1e-300, 1e12]). A
    *  stage's ε schedule (hetinv_stage_t.epsilon_start, settle_epsilon)
    *  scales it by the schedule's ε over HETINV_OPTIMIZER_EPSILON, so the
    *  schedule means the same for every method. */
   HETINV_OPTIMIZER_LEARNING_RATE = 3,
-  /** Adam's β1 (default 0.9; [0, 1)). */
+  /** Adam's β1 (default 0.9; [0, 0.999999]). */
   HETINV_OPTIMIZER_BETA1 = 4,
-  /** Adam's β2 (default 0.999; [0, 1)). */
+  /** Adam's β2 (default 0.999; [0, 0.999999]). */
   HETINV_OPTIMIZER_BETA2 = 5,
   /** Emitters per iteration (default 0 = every emitter of the set; integer ≥ 0). */
   HETINV_OPTIMIZER_MINIBATCH = 6,
@@ -513,7 +513,9 @@ HETINV_API hetinv_result_t hetinv_optimizer_result(const hetinv_optimizer_t *opt
  * @param[out] pi receives the stage's π.
  * @param count length of @p pi; must equal the stage map's size.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
- *         HETINV_ERROR_INVALID_STATE (no stage); HETINV_ERROR_INVALID_ARGUMENT (count).
+ *         HETINV_ERROR_INVALID_STATE (no stage has started: before the first
+ *         hetinv_optimizer_run() or hetinv_optimizer_resume());
+ *         HETINV_ERROR_INVALID_ARGUMENT (count).
  */
 HETINV_API hetinv_result_t hetinv_optimizer_get_pi(const hetinv_optimizer_t *optimizer,
                                                    int averaged, double *pi, size_t count);
