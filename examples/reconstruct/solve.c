@@ -228,7 +228,11 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (masked + weightless == values) {
     snprintf(msg, msg_size, "no value is left in the loss: %zu of %zu masked (acquisition.min_snr, "
              "acquisition.saturation or the measurements' mask), %zu of weight 0 (acquisition.weighting); "
-             "nothing to fit", masked, values, weightless);
+             "nothing to fit%s", masked, values, weightless,
+             masked == values && sc->render_scene[0] == '\0'
+                 ? " (if the truth's render is dark, light may not cross the medium at medium.size "
+                   "and these coefficients)"
+                 : "");
     return HETINV_ERROR_INVALID_ARGUMENT;
   }
   hetinv_medium_t *init = NULL;
