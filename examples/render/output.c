@@ -326,6 +326,18 @@ void output_print_summary(const scene_t *sc, const render_result_t *res, FILE *l
   for (int f = 0; f < 6; ++f) fprintf(log, " %s %.4g", face_names[f], st->escaped[f]);
   if (st->truncated != 0.0) fprintf(log, ", truncated %.4g", st->truncated);
   fprintf(log, "\n");
+  /* Power stopped by the library's default bound is in no value, so the
+   * values are low by up to that much (an optically very thick, nearly
+   * non-absorbing medium: crossing T mean free paths takes about T²
+   * events). A bound the scene set itself is its choice. */
+  if (st->truncated != 0.0 && !scene_max_scattering_given(sc)) {
+    fprintf(stderr,
+            "hetinv-render: warning: %llu path%s reached the default bound of %d scattering events and %s "
+            "stopped, with %.4g of the emitted power per emitter that no value holds; set "
+            "estimator.max_scattering higher (0: no bound) if that is not below the values' standard errors\n",
+            (unsigned long long)st->truncated_paths, st->truncated_paths == 1 ? "" : "s",
+            HETINV_ESTIMATOR_DEFAULT_MAX_SCATTERING, st->truncated_paths == 1 ? "was" : "were", st->truncated);
+  }
 }
 
 /* array of n numbers, or NULL when out of memory */

@@ -21,6 +21,13 @@ static const struct {
     {"max_scattering", HETINV_ESTIMATOR_MAX_SCATTERING},
     {"stream", HETINV_ESTIMATOR_STREAM}};
 
+bool scene_max_scattering_given(const scene_t *sc) {
+  for (int k = 0; k < SCENE_ESTIMATOR_KEYS; ++k) {
+    if (estimator_keys[k].param == HETINV_ESTIMATOR_MAX_SCATTERING) return sc->estimator_given[k] != 0;
+  }
+  return false;
+}
+
 /* Largest integer a JSON number holds exactly. */
 #define JSON_INT_MAX 9007199254740992LL
 

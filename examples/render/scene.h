@@ -5,6 +5,7 @@
 #ifndef HETINV_RENDER_SCENE_H
 #define HETINV_RENDER_SCENE_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include <hetinv/hetinv.h>
@@ -131,6 +132,9 @@ void scene_destroy(scene_t *scene);
 
 /* Records "<file>: <path>: <library message> (<result name>)" and returns -1. */
 int scene_lib_fail(jr_t *jr, const char *path, const hetinv_context_t *ctx, hetinv_result_t r);
+
+/* Whether the scene set estimator.max_scattering itself. */
+bool scene_max_scattering_given(const scene_t *sc);
 
 /* Checks that name (at path) can be part of a file name: letters, digits,
  * '_', '-', '.', not starting with '.', shorter than max bytes. */
