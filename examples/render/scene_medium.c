@@ -119,25 +119,25 @@ static int build_uniform(scene_t *sc, jr_t *jr, const cJSON *medium, const cJSON
   return 0;
 }
 
+typedef enum { LAYERS_FIT, LAYERS_OFF_BOUNDARY, LAYERS_EMPTY_LAYER } layers_fit_t;
+
 /* Is every interior layer boundary (fractions f[0..count-1] of the depth) on
  * a voxel boundary of nz voxels, and every layer at least one voxel thick?
  * The tolerance is a millionth of a voxel, so a layer thinner than that
  * would otherwise pass with no voxel of its own and vanish from the
- * medium. Sets *bad to the first boundary that is off (*empty 0), or to
- * the first layer left without a voxel (*empty 1). */
-static int aligned(const double *f, int count, int32_t nz, int *bad, int *empty) {
+ * medium. On a failure *bad is the boundary that is off, or the layer
+ * left without a voxel. */
+static layers_fit_t layers_fit(const double *f, int count, int32_t nz, int *bad) {
   double below = 0.0; /* the last boundary's voxel index */
   for (int k = 0; k <= count; ++k) {
     double x = k < count ? f[k] * nz : nz;
     double at = floor(x + 0.5);
     *bad = k;
-    *empty = 0;
-    if (k < count && fabs(x - at) > 1e-6) return 0;
-    *empty = 1;
-    if (!(at > below)) return 0;
+    if (k < count && fabs(x - at) > 1e-6) return LAYERS_OFF_BOUNDARY;
+    if (!(at > below)) return LAYERS_EMPTY_LAYER;
     below = at;
   }
-  return 1;
+  return LAYERS_FIT;
 }
 
 static double thinnest(const double *thick, int count) {
@@ -195,10 +195,11 @@ static int build_layers(scene_t *sc, jr_t *jr, const cJSON *medium, const cJSON 
     frac[k] = cum / total;
   }
   sc->dims[0] = sc->dims[1] = 1;
-  int bad = 0, empty = 0, r = read_dims(jr, medium, sc->dims);
+  int bad = 0, r = read_dims(jr, medium, sc->dims);
   if (r < 0) goto done;
-  if (r == 1 && !aligned(frac, count - 1, sc->dims[2], &bad, &empty)) {
-    if (empty) {
+  layers_fit_t fit = r == 1 ? layers_fit(frac, count - 1, sc->dims[2], &bad) : LAYERS_FIT;
+  if (fit != LAYERS_FIT) {
+    if (fit == LAYERS_EMPTY_LAYER) {
       jr_fail(jr, "medium.dims", "nz = %d leaves medium.layers[%d] (counted from %s) without a voxel of its own; "
               "choose nz so that every layer is a whole number of voxels thick (or leave \"dims\" out)",
               (int)sc->dims[2], bad, from_top ? "z_max" : "z_min");
@@ -211,7 +212,7 @@ static int build_layers(scene_t *sc, jr_t *jr, const cJSON *medium, const cJSON 
   }
   if (r == 0) { /* the coarsest grid whose voxel boundaries include the layer boundaries */
     int32_t nz = 1;
-    while (nz <= 100000 && !aligned(frac, count - 1, nz, &bad, &empty)) ++nz;
+    while (nz <= 100000 && layers_fit(frac, count - 1, nz, &bad) != LAYERS_FIT) ++nz;
     if (nz > 100000) {
       jr_fail(jr, "medium.layers", "no grid of up to 100000 voxels along z has a voxel "
               "boundary at every layer boundary and a voxel in every layer (the thinnest is %.3g of "
