@@ -273,18 +273,22 @@ HETINV_API hetinv_result_t hetinv_image_get_attribute_int(const hetinv_image_t *
 HETINV_API hetinv_result_t hetinv_image_write_exr(const hetinv_image_t *image, const char *path);
 
 /**
- * @brief Read the first part of an OpenEXR file (scanline or tiled; half,
- *        float or uint channels, converted to float) with its string,
- *        float, double and int attributes (floats become doubles).
- *        Attributes an image cannot hold (reserved or malformed names,
- *        strings over 65535 bytes, non-finite numbers, other types) are
- *        skipped without error.
+ * @brief Read a single-part OpenEXR file (scanline or tiled, the first
+ *        level of a mipmap; half, float or uint channels, converted to
+ *        float) with its string, float, double and int attributes (floats
+ *        become doubles). The image is the data window, whose first pixel
+ *        is pixel (0, 0); it must equal the display window, since a crop
+ *        or overscan would be read shifted. Attributes an image cannot
+ *        hold (reserved or malformed names, strings over 65535 bytes,
+ *        non-finite numbers, other types) are skipped without error.
  * @param ctx the context; the image must be destroyed before it.
  * @param path file to read.
  * @param[out] out receives the image; NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_IO;
  *         HETINV_ERROR_CORRUPT_FILE; HETINV_ERROR_UNSUPPORTED (deep data,
- *         subsampled channels); HETINV_ERROR_SIZE_OVERFLOW;
+ *         subsampled channels, more than one part, a data window that is
+ *         not the display window, DWAA or DWAB compression under an
+ *         OpenEXR library older than 3.1.10); HETINV_ERROR_SIZE_OVERFLOW;
  *         HETINV_ERROR_OUT_OF_MEMORY. Thread-safe.
  */
 HETINV_API hetinv_result_t hetinv_image_read_exr(hetinv_context_t *ctx, const char *path,

@@ -136,8 +136,64 @@ static hetinv_result_t open_file(exr_reader_t *rd) {
   return rv == EXR_ERR_SUCCESS ? HETINV_SUCCESS : fail_exr(rd, rv);
 }
 
+/* A multi-part file is refused rather than read by its first part: that
+ * part may be another tool's preview or dark frame with the same channels. */
+static hetinv_result_t check_single_part(exr_reader_t *rd) {
+  int parts = 0;
+  exr_result_t rv = exr_get_count(rd->exr, &parts);
+  if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
+  if (parts == 1) return HETINV_SUCCESS;
+  const char *first = NULL, *second = NULL;
+  if (exr_get_name(rd->exr, 0, &first) != EXR_ERR_SUCCESS || first == NULL) first = "";
+  if (parts < 2 || exr_get_name(rd->exr, 1, &second) != EXR_ERR_SUCCESS || second == NULL) second = "";
+  hv_exr_clear_error();
+  return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
+                 "'%s' has %d parts (the first two named \"%.64s\" and \"%.64s\"); only single-part "
+                 "files are read: save the part that holds the image as a file of its own",
+                 rd->path, parts, first, second);
+}
+
+/* The image is the data window, so it must be the display window too: a
+ * window offset from it (a crop, an overscan) would be read shifted. */
+static hetinv_result_t check_windows(exr_reader_t *rd) {
+  exr_attr_box2i_t display;
+  exr_result_t rv = exr_get_display_window(rd->exr, 0, &display);
+  if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
+  const exr_attr_box2i_t *w = &rd->window;
+  if (display.min.x == w->min.x && display.min.y == w->min.y && display.max.x == w->max.x &&
+      display.max.y == w->max.y) {
+    return HETINV_SUCCESS;
+  }
+  return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
+                 "the data window of '%s', (%d, %d) - (%d, %d), is not its display window, (%d, %d) - "
+                 "(%d, %d); only files whose two windows are the same are read (a cropped or "
+                 "overscanned image would be read shifted)",
+                 rd->path, (int)w->min.x, (int)w->min.y, (int)w->max.x, (int)w->max.y, (int)display.min.x,
+                 (int)display.min.y, (int)display.max.x, (int)display.max.y);
+}
+
+/* OpenEXR's C core decodes DWAA and DWAB from 3.1.10 on; before, only the
+ * chunks stored raw would read, so a file would pass or fail by its
+ * content. Refused whole instead, by the library actually loaded. */
+static hetinv_result_t check_compression(exr_reader_t *rd) {
+  exr_compression_t compression = EXR_COMPRESSION_NONE;
+  exr_result_t rv = exr_get_compression(rd->exr, 0, &compression);
+  if (rv != EXR_ERR_SUCCESS) return fail_exr(rd, rv);
+  if (compression != EXR_COMPRESSION_DWAA && compression != EXR_COMPRESSION_DWAB) return HETINV_SUCCESS;
+  int major = 0, minor = 0, patch = 0;
+  const char *extra = NULL;
+  exr_get_library_version(&major, &minor, &patch, &extra);
+  if (major > 3 || (major == 3 && (minor > 1 || (minor == 1 && patch >= 10)))) return HETINV_SUCCESS;
+  return HV_FAIL(rd->ctx, HETINV_ERROR_UNSUPPORTED,
+                 "'%s' is %s-compressed, which the OpenEXR library in use (%d.%d.%d) cannot decode "
+                 "(3.1.10 and later can): save it with ZIP or PIZ compression",
+                 rd->path, compression == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB", major, minor, patch);
+}
+
 /* Checks what we support and that the data window is sane before allocating. */
 static hetinv_result_t check_header(exr_reader_t *rd) {
+  hetinv_result_t r = check_single_part(rd);
+  if (r != HETINV_SUCCESS) return r;
   exr_result_t rv = exr_get_storage(rd->exr, 0, &rd->storage);
   if (rv == EXR_ERR_SUCCESS) rv = exr_get_channels(rd->exr, 0, &rd->channels);
   if (rv == EXR_ERR_SUCCESS) rv = exr_get_data_window(rd->exr, 0, &rd->window);
@@ -204,6 +260,8 @@ static hetinv_result_t check_header(exr_reader_t *rd) {
                    rd->path, (long long)width, (long long)height,
                    (int)(INT32_MAX / (int)sizeof(float)));
   }
+  /* After the size checks: a window the file cannot hold is corrupt first. */
+  if ((r = check_windows(rd)) != HETINV_SUCCESS || (r = check_compression(rd)) != HETINV_SUCCESS) return r;
   rd->width = (int32_t)width;
   rd->height = (int32_t)height;
   return HETINV_SUCCESS;

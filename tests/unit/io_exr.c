@@ -486,6 +486,66 @@ static void write_header_only(const char *path, exr_storage_t storage, int sampl
   ht_write_file(path, memory_file.bytes, memory_file.size + 64);
 }
 
+/* Header-only files another tool might write, which the reader must refuse
+ * rather than misread. */
+enum foreign_header { TWO_PARTS, SHIFTED_DATA_WINDOW, DWAA_COMPRESSED };
+
+static void write_foreign_header(const char *path, enum foreign_header kind) {
+  memory_file.size = 0;
+  exr_context_t exr = NULL;
+  exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+  init.write_fn = write_memory;
+  assert_int_equal(exr_start_write(&exr, path, EXR_WRITE_FILE_DIRECTLY, &init), EXR_ERR_SUCCESS);
+  int parts = kind == TWO_PARTS ? 2 : 1;
+  const char *names[2] = {"dark", "measurement"};
+  for (int i = 0; i < parts; ++i) {
+    int part = 0;
+    assert_int_equal(exr_add_part(exr, parts > 1 ? names[i] : NULL, EXR_STORAGE_SCANLINE, &part), EXR_ERR_SUCCESS);
+    /* the data window one pixel right of and below the display window */
+    exr_attr_box2i_t display = {{{{0, 0}}}, {{{3, 3}}}}, data = {{{{1, 1}}}, {{{4, 4}}}};
+    exr_attr_v2f_t center = {{{0.0f, 0.0f}}};
+    assert_int_equal(exr_initialize_required_attr(exr, part, &display, kind == SHIFTED_DATA_WINDOW ? &data : &display,
+                                                  1.0f, &center, 1.0f, EXR_LINEORDER_INCREASING_Y,
+                                                  kind == DWAA_COMPRESSED ? EXR_COMPRESSION_DWAA : EXR_COMPRESSION_NONE),
+                     EXR_ERR_SUCCESS);
+    assert_int_equal(exr_add_channel(exr, part, "L", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LINEAR, 1, 1),
+                     EXR_ERR_SUCCESS);
+  }
+  assert_int_equal(exr_write_header(exr), EXR_ERR_SUCCESS);
+  exr_finish(&exr); /* unfinished: no pixels */
+  memset(memory_file.bytes + memory_file.size, 0, 256); /* zero chunk tables */
+  ht_write_file(path, memory_file.bytes, memory_file.size + 256);
+}
+
+/* The first part could be a dark frame or a preview with the same channel
+ * names: read, it would be taken for the measurement. */
+static void multi_part_file_is_refused_naming_its_parts(void **state) {
+  write_foreign_header(ht_path("parts.exr"), TWO_PARTS);
+  assert_read_fails(*state, HETINV_ERROR_UNSUPPORTED, ht_path("parts.exr"));
+  assert_message_contains("has 2 parts (the first two named \"dark\" and \"measurement\")");
+}
+
+/* Pixel (0, 0) is the data window's first; a crop or an overscan would move
+ * every value to another pixel. */
+static void data_window_off_the_display_window_is_refused(void **state) {
+  write_foreign_header(ht_path("shifted.exr"), SHIFTED_DATA_WINDOW);
+  assert_read_fails(*state, HETINV_ERROR_UNSUPPORTED, ht_path("shifted.exr"));
+  assert_message_contains("the data window of");
+  assert_message_contains("(1, 1) - (4, 4), is not its display window, (0, 0) - (3, 3)");
+}
+
+/* Before OpenEXR 3.1.10 the C core decodes only DWA chunks stored raw: the
+ * file is refused whole, not chunk by chunk. */
+static void dwa_file_is_refused_whole_by_an_old_openexr(void **state) {
+  int major = 0, minor = 0, patch = 0;
+  const char *extra = NULL;
+  exr_get_library_version(&major, &minor, &patch, &extra);
+  if (major > 3 || (major == 3 && (minor > 1 || (minor == 1 && patch >= 10)))) skip();
+  write_foreign_header(ht_path("dwaa.exr"), DWAA_COMPRESSED);
+  assert_read_fails(*state, HETINV_ERROR_UNSUPPORTED, ht_path("dwaa.exr"));
+  assert_message_contains("is DWAA-compressed, which the OpenEXR library in use");
+}
+
 static void deep_file_is_unsupported(void **state) {
   write_header_only(ht_path("deep.exr"), EXR_STORAGE_DEEP_SCANLINE, 1);
   assert_read_fails(*state, HETINV_ERROR_UNSUPPORTED, ht_path("deep.exr"));
@@ -778,7 +838,10 @@ int main(void) {
       EXR_TEST(half_uint_float_scanline_file_is_converted),
       EXR_TEST(tiled_file_is_read),
       EXR_TEST(channel_order_attribute_is_honoured_only_if_valid),
-      EXR_TEST(deep_file_is_unsupported),
+      EXR_TEST(multi_part_file_is_refused_naming_its_parts),
+    EXR_TEST(data_window_off_the_display_window_is_refused),
+    EXR_TEST(dwa_file_is_refused_whole_by_an_old_openexr),
+    EXR_TEST(deep_file_is_unsupported),
       EXR_TEST(subsampled_channel_is_unsupported),
       EXR_TEST(missing_file_is_an_io_error),
       EXR_TEST(fifo_is_refused_without_waiting),

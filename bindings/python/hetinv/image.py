@@ -148,8 +148,9 @@ class Image(Handle):
 
 
 def read_exr(ctx, path):
-    """The first part of an OpenEXR file as an Image (channels converted to
-    float32, their order as written by the library restored)."""
+    """A single-part OpenEXR file as an Image (channels converted to
+    float32, their order as written by the library restored; the data window
+    must be the display window)."""
     h = ctypes.c_void_p()
     check(lib.image_read_exr(_ctx(ctx), _path(path), ctypes.byref(h)))
     img = Image._wrap(h, [ctx])
