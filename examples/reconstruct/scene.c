@@ -203,14 +203,32 @@ static int read_triplet_object(jr_t *jr, const cJSON *o, const char *path, const
 
 /* name relative to the folder of the scene file `scene` (as written),
  * unless absolute; -1 if it does not fit in size bytes. */
-static int resolve_path(const char *scene, const char *name, char *out, size_t size) {
+/* Writes name resolved against the scene's folder into out; returns the
+ * resolved path's length, which is >= size if it did not fit (nothing
+ * written then). */
+static size_t resolve_path(const char *scene, const char *name, char *out, size_t size) {
   const char *slash = strrchr(scene, '/');
   size_t dir = name[0] == '/' || slash == NULL ? 0 : (size_t)(slash - scene) + 1;
   size_t len = strlen(name);
-  if (dir + len >= size) return -1;
+  if (dir + len >= size) return dir + len;
   memcpy(out, scene, dir);
   memcpy(out + dir, name, len + 1);
-  return 0;
+  return dir + len;
+}
+
+/* A string naming a file or folder, resolved against the scene's folder. */
+static int read_path(jr_t *jr, const cJSON *o, const char *path, const char *key, int required,
+                     char *out, size_t size) {
+  const char *s = NULL;
+  int got = jr_string(jr, o, path, key, required, &s);
+  if (got <= 0) return got;
+  char at[JR_PATH_MAX];
+  jr_key(at, path, key);
+  size_t len = resolve_path(jr->file, s, out, size);
+  if (len >= size) {
+    return jr_fail(jr, at, "the path, resolved against the scene's folder, is %zu bytes long; at most %zu", len, size - 1);
+  }
+  return 1;
 }
 
 static int read_truth(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
@@ -236,14 +254,11 @@ static int read_truth(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   const cJSON *v = NULL;
   got = jr_object(jr, o, "truth", "vol", sc->truth_kind == RECON_TRUTH_VOL ? JR_REQUIRED : JR_OPTIONAL, &v);
   if (got < 0) return -1;
+  static const char *const vol_allowed[] = {"sigma_a", "sigma_s", "g", NULL};
+  if (got > 0 && jr_check_object(jr, v, "truth.vol", vol_allowed) < 0) return -1;
   for (int p = 0; got > 0 && p < 3; ++p) {
-    const char *s = NULL;
-    if (jr_string(jr, v, "truth.vol", PARAM_KEYS[p], JR_REQUIRED, &s) < 0) return -1;
-    /* Relative to the scene's folder, as every path of a scene. */
-    if (resolve_path(jr->file, s, sc->truth_vol[p], sizeof sc->truth_vol[p]) < 0) {
-      char at[JR_PATH_MAX];
-      jr_key(at, "truth.vol", PARAM_KEYS[p]);
-      return jr_fail(jr, at, "the path is too long");
+    if (read_path(jr, v, "truth.vol", PARAM_KEYS[p], JR_REQUIRED, sc->truth_vol[p], sizeof sc->truth_vol[p]) < 0) {
+      return -1;
     }
   }
   return 0;
@@ -286,17 +301,6 @@ static int read_imaging(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   return 0;
 }
 
-/* A string naming a file or folder, resolved against the scene's folder. */
-static int read_path(jr_t *jr, const cJSON *o, const char *path, const char *key, int required,
-                     char *out, size_t size) {
-  const char *s = NULL;
-  int got = jr_string(jr, o, path, key, required, &s);
-  if (got <= 0) return got;
-  char at[JR_PATH_MAX];
-  jr_key(at, path, key);
-  if (resolve_path(jr->file, s, out, size) < 0) return jr_fail(jr, at, "the path is too long");
-  return 1;
-}
 
 /* The acquisition from files (measured.c): a render scene and the folders
  * of its rows' measured values and standard errors. */
