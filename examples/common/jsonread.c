@@ -155,9 +155,14 @@ int jr_integer(jr_t *jr, const cJSON *object, const char *path, const char *key,
   int r = fetch(jr, object, path, key, required, &item, at);
   if (r <= 0) return r;
   double v = item != NULL && cJSON_IsNumber(item) ? item->valuedouble : (double)NAN;
-  /* The bounds are compared as integers: (double)hi rounds up for a hi near
-   * INT64_MAX, and converting 2^63 to int64_t is undefined. */
-  if (!isfinite(v) || v != floor(v) || !(v >= -0x1p63 && v < 0x1p63) || (int64_t)v < lo || (int64_t)v > hi) {
+  if (hi > JR_INTEGER_MAX) hi = JR_INTEGER_MAX;
+  if (lo < -JR_INTEGER_MAX) lo = -JR_INTEGER_MAX;
+  if (isfinite(v) && v == floor(v) && fabs(v) > (double)JR_INTEGER_MAX) {
+    return jr_fail(jr, at, "is %.17g or a neighbour that rounds to it: a JSON integer is read as a double, "
+                   "exact only up to 2^53 - 1; expected an integer from %lld to %lld", v, (long long)lo, (long long)hi);
+  }
+  /* The bounds are compared as integers (v is below 2^53 here). */
+  if (!isfinite(v) || v != floor(v) || (int64_t)v < lo || (int64_t)v > hi) {
     return jr_fail(jr, at, "expected an integer from %lld to %lld, found %s", (long long)lo,
                    (long long)hi, jr_describe(item, buf, sizeof buf));
   }

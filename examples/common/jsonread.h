@@ -62,7 +62,12 @@ int jr_number(jr_t *jr, const cJSON *object, const char *path, const char *key, 
 /* A finite number > 0. */
 int jr_positive(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
                 double *out);
-/* An integer in [lo, hi]. */
+/* The largest integer a JSON number is read as exactly: cJSON keeps numbers
+ * as doubles, so 2^53 + 1 would arrive as 2^53. */
+#define JR_INTEGER_MAX 9007199254740991LL /* 2^53 - 1 */
+
+/* An integer in [lo, hi], hi and -lo capped at JR_INTEGER_MAX: a larger
+ * one is refused, not rounded to another. */
 int jr_integer(jr_t *jr, const cJSON *object, const char *path, const char *key, int required,
                int64_t lo, int64_t hi, int64_t *out);
 /* A non-empty string. */

@@ -248,7 +248,7 @@ static int read_truth(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   }
   sc->has_truth = true;
   int64_t seed = (int64_t)sc->truth_seed;
-  if (jr_integer(jr, o, "truth", "seed", JR_OPTIONAL, 0, INT64_MAX, &seed) < 0) return -1;
+  if (jr_integer(jr, o, "truth", "seed", JR_OPTIONAL, 0, JR_INTEGER_MAX, &seed) < 0) return -1;
   sc->truth_seed = (uint64_t)seed;
   if (read_triplet_object(jr, o, "truth", "range", sc->truth_lo, sc->truth_hi) < 0) return -1;
   const cJSON *v = NULL;
@@ -392,7 +392,7 @@ static int read_acquisition(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (jr_positive(jr, o, "acquisition", "full_well", JR_OPTIONAL, &sc->noise_model.full_well) < 0) return -1;
   if (jr_number(jr, o, "acquisition", "read_noise", JR_OPTIONAL, &sc->noise_model.read_noise) < 0) return -1;
   int64_t v = (int64_t)sc->noise_model.seed;
-  if (jr_integer(jr, o, "acquisition", "seed", JR_OPTIONAL, 0, INT64_MAX, &v) < 0) return -1;
+  if (jr_integer(jr, o, "acquisition", "seed", JR_OPTIONAL, 0, JR_INTEGER_MAX, &v) < 0) return -1;
   sc->noise_model.seed = (uint64_t)v;
   if (jr_choice(jr, o, "acquisition", "weighting", JR_OPTIONAL, recon_weighting_names, &sc->weighting) < 0) return -1;
   if (jr_integer(jr, o, "acquisition", "photons", JR_OPTIONAL, 1, (int64_t)1 << 40, &sc->truth_photons) < 0) return -1;
@@ -558,7 +558,7 @@ static int parse_root(jr_t *jrp, cJSON *root, recon_scene_t *sc, char *msg, size
     rc = jr_fail(&jr, "output", "the path is %zu bytes long; at most %zu", strlen(s), sizeof sc->output - 1);
   }
   int64_t v = (int64_t)sc->seed;
-  if (rc == 0 && jr_integer(&jr, root, "", "seed", JR_OPTIONAL, 0, INT64_MAX, &v) < 0) rc = -1;
+  if (rc == 0 && jr_integer(&jr, root, "", "seed", JR_OPTIONAL, 0, JR_INTEGER_MAX, &v) < 0) rc = -1;
   sc->seed = (uint64_t)v;
   if (rc == 0 && read_int32(&jr, root, "", "threads", 0, HETINV_MAX_THREADS, &sc->threads) < 0) rc = -1;
   /* The acquisition first: from files, the render scene replaces "medium"

@@ -28,9 +28,6 @@ bool scene_max_scattering_given(const scene_t *sc) {
   return false;
 }
 
-/* Largest integer a JSON number holds exactly. */
-#define JSON_INT_MAX 9007199254740992LL
-
 int scene_lib_fail(jr_t *jr, const char *path, const hetinv_context_t *ctx, hetinv_result_t r) {
   return jr_fail(jr, path, "%s (%s)", hetinv_context_last_error_message(ctx), hetinv_result_name(r));
 }
@@ -71,7 +68,7 @@ static int read_noise(scene_t *sc, jr_t *jr) {
     return jr_fail(jr, "noise.auto_level", "is %g; expected a fraction of the full well in (0, 1]", m->auto_level);
   }
   int64_t seed = 0;
-  if (jr_integer(jr, o, "noise", "seed", JR_OPTIONAL, 0, JSON_INT_MAX, &seed) < 0) return -1;
+  if (jr_integer(jr, o, "noise", "seed", JR_OPTIONAL, 0, JR_INTEGER_MAX, &seed) < 0) return -1;
   m->seed = (uint64_t)seed;
   sc->has_noise = 1;
   return 0;
@@ -81,9 +78,9 @@ static int read_run_settings(scene_t *sc, jr_t *jr) {
   const cJSON *root = sc->root;
   int64_t v = 0;
   sc->photons = 100000;
-  int r = jr_integer(jr, root, "", "photons", JR_OPTIONAL, 1, JSON_INT_MAX, &sc->photons);
+  int r = jr_integer(jr, root, "", "photons", JR_OPTIONAL, 1, JR_INTEGER_MAX, &sc->photons);
   if (r < 0) return r;
-  if ((r = jr_integer(jr, root, "", "seed", JR_OPTIONAL, 0, JSON_INT_MAX, &v)) < 0) return r;
+  if ((r = jr_integer(jr, root, "", "seed", JR_OPTIONAL, 0, JR_INTEGER_MAX, &v)) < 0) return r;
   sc->seed = (uint64_t)v;
   v = 0;
   if ((r = jr_integer(jr, root, "", "threads", JR_OPTIONAL, 0, HETINV_MAX_THREADS, &v)) < 0) return r;
