@@ -5,12 +5,68 @@
  * height pixels, row 0 of the image the highest v; standard errors in
  * <row>_stderr.exr. */
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "faces.h"
 #include "recon.h"
 #include "scene.h"
+
+/* Whether two lengths agree to within what a float attribute keeps. */
+static bool same_length(double a, double b) { return fabs(a - b) <= 1e-6 * fmax(fabs(a), fabs(b)); }
+
+/* A file hetinv-render wrote describes its row (render/output.c): where it
+ * does, the description must be the render scene's, else the file was
+ * written for another scene (bins of another width, another unit, another
+ * face) and its values would be fitted under the wrong model. Attributes a
+ * file lacks (an instrument's) are not required. */
+static int check_description(const hetinv_image_t *img, const scene_t *scene, int row, const char *file, char *msg,
+                             size_t msg_size) {
+  const scene_row_t *rw = &scene->rows[row];
+  const scene_sensor_t *s = &scene->sensors[rw->sensor];
+  const scene_pathlength_t *pl = &scene->pathlengths[rw->pathlength];
+  const char *text = NULL, *want = NULL, *key = NULL;
+  const char *const strings[][2] = {{"hetinv:lengthUnit", scene->unit},
+                                    {"hetinv:sensorFace", face_names[s->face]},
+                                    {"hetinv:pathlengthType", pl->steady ? "steady" : "bins"}};
+  for (size_t i = 0; key == NULL && i < sizeof strings / sizeof strings[0]; ++i) {
+    if (hetinv_image_get_attribute_string(img, strings[i][0], &text) == HETINV_SUCCESS && strcmp(text, strings[i][1]) != 0) {
+      key = strings[i][0];
+      want = strings[i][1];
+    }
+  }
+  if (key != NULL) {
+    snprintf(msg, msg_size, "%s: its attribute %s is \"%s\", but measurement row %d \"%s\" of the render scene "
+             "has \"%s\": the file was written for another scene", file, key, text, row, rw->name, want);
+    return -1;
+  }
+  int32_t count = 0;
+  double width = 0.0, size[2] = {0.0, 0.0};
+  if (hetinv_image_get_attribute_int(img, "hetinv:binCount", &count) == HETINV_SUCCESS && count != pl->count) {
+    snprintf(msg, msg_size, "%s: its attribute hetinv:binCount is %d, but measurement row %d \"%s\" of the render "
+             "scene has %d bins: the file was written for another scene", file, (int)count, row, rw->name,
+             (int)pl->count);
+    return -1;
+  }
+  if (!pl->steady && hetinv_image_get_attribute_double(img, "hetinv:binWidth", &width) == HETINV_SUCCESS &&
+      !same_length(width, pl->width)) {
+    snprintf(msg, msg_size, "%s: its attribute hetinv:binWidth is %.9g, but measurement row %d \"%s\" of the render "
+             "scene has bins %.9g wide: the file was written for another scene", file, width, row, rw->name,
+             pl->width);
+    return -1;
+  }
+  if (hetinv_image_get_attribute_string(img, "hetinv:pixelSize", &text) == HETINV_SUCCESS &&
+      sscanf(text, "[%lf, %lf]", &size[0], &size[1]) == 2 &&
+      !(same_length(size[0], s->pixel_size[0]) && same_length(size[1], s->pixel_size[1]))) {
+    snprintf(msg, msg_size, "%s: its attribute hetinv:pixelSize is %s, but measurement row %d \"%s\" of the render "
+             "scene has pixels of [%.9g, %.9g]: the file was written for another scene", file, text, row, rw->name,
+             s->pixel_size[0], s->pixel_size[1]);
+    return -1;
+  }
+  return 0;
+}
 
 /* Reads one stack of a row into dst (the row's values in the set's layout:
  * bin-major, then pixel j·width + i, j from the lowest v). Non-finite
@@ -42,7 +98,7 @@ static int read_stack(hetinv_context_t *ctx, const scene_t *scene, int row, size
              "%d x %d pixels", file, (int)w, (int)h, row, rw->name, s->name, (int)s->width,
              (int)s->height);
   } else {
-    status = 0;
+    status = check_description(img, scene, row, file, msg, msg_size);
   }
   const size_t pixels = (size_t)w * (size_t)h;
   for (int32_t b = 0; status == 0 && b < pl->count; ++b) {
