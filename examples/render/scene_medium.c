@@ -303,6 +303,11 @@ static int build_vol(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const cJSON *
                    (int)sc->dims[0], (int)sc->dims[1], (int)sc->dims[2], (long long)MAX_VOXELS);
   }
   r = hetinv_medium_create(ctx, sc->box_min, sc->box_max, sc->dims, &sc->medium);
+  if (r != HETINV_SUCCESS && !has_box && r == HETINV_ERROR_INVALID_ARGUMENT) {
+    /* Mitsuba files may carry an empty box: say where it came from. */
+    return jr_fail(jr, at, "%s (%s): the box is the .vol file's header's; a scene \"box\" replaces it",
+                   hetinv_context_last_error_message(ctx), hetinv_result_name(r));
+  }
   if (r != HETINV_SUCCESS) return scene_lib_fail(jr, has_box ? "box" : at, ctx, r);
   if (grids_alloc(jr, g, sc->dims) < 0) return -1;
   for (int p = 0; p < HETINV_PARAM_COUNT; ++p) {

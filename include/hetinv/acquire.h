@@ -155,8 +155,8 @@ typedef struct hetinv_mixture_spec {
 } hetinv_mixture_spec_t;
 
 /**
- * @brief Fill @p spec with the defaults: σa in [0.05, 0.5], σs in [1, 10],
- *        g in [0, 0.9] (per unit length), 2 components, widths 0.15..0.4,
+ * @brief Fill @p spec with the defaults: σa in [0.05, 0.5], σs in [1, 10]
+ *        (per unit length), g in [0, 0.9], 2 components, widths 0.15..0.4,
  *        a 3D field, seed 0, and size = sizeof(hetinv_mixture_spec_t).
  * @param[out] spec the struct to fill; NULL is a no-op. Thread-safe.
  */

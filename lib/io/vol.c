@@ -110,9 +110,14 @@ hetinv_result_t hv_vol_parse_header(const hetinv_context_t *ctx,
   }
   int32_t encoding = get_i32(bytes + 4);
   if (encoding != 1) {
+    /* An encoding that reads as one of the four with its bytes reversed:
+     * a big-endian writer's file. */
+    uint32_t u = (uint32_t)encoding, swapped = u >> 24 | (u >> 8 & 0xff00u) | (u << 8 & 0xff0000u) | u << 24;
+    bool big_endian = swapped >= 1 && swapped <= 4;
     return HV_FAIL(ctx, HETINV_ERROR_UNSUPPORTED,
-                   "%s: encoding is %d (%s); only 1 (float32) is supported", source,
-                   (int)encoding, encoding_name(encoding));
+                   "%s: encoding is %d (%s); only 1 (float32) is supported%s", source,
+                   (int)encoding, encoding_name(encoding),
+                   big_endian ? ": the file looks big-endian, and .vol files are little-endian" : "");
   }
   hetinv_vol_header_t h;
   for (int i = 0; i < 3; ++i) h.dims[i] = get_i32(bytes + 8 + 4 * i);

@@ -252,6 +252,17 @@ static void float16_encoding_is_unsupported(void **state) {
   expect_read_failure(*state, path, HETINV_ERROR_UNSUPPORTED, "encoding is 2 (float16)", 0);
 }
 
+/* A big-endian writer's float32 file: its encoding 1 reads as 2^24. */
+static void big_endian_file_is_named_as_such(void **state) {
+  unsigned char h[HEADER];
+  make_header(h, 1, 1, 1, 1);
+  le32(h + 4, UINT32_C(1) << 24);
+  const float v = 1.0f;
+  const char *path = write_raw("be.vol", h, HEADER, &v, 1);
+  expect_read_failure(*state, path, HETINV_ERROR_UNSUPPORTED,
+                      "encoding is 16777216 (unknown); only 1 (float32) is supported: the file looks big-endian", 0);
+}
+
 static void uint8_and_direction_encodings_are_named(void **state) {
   static const char *const expected[2] = {"encoding is 3 (uint8)",
                                           "encoding is 4 (quantized directions)"};
@@ -630,6 +641,7 @@ int main(void) {
       VOL_TEST(wrong_magic_is_corrupt),
       VOL_TEST(version_2_is_unsupported),
       VOL_TEST(float16_encoding_is_unsupported),
+      VOL_TEST(big_endian_file_is_named_as_such),
       VOL_TEST(uint8_and_direction_encodings_are_named),
       VOL_TEST(two_channels_are_unsupported),
       VOL_TEST(zero_dimension_is_corrupt),
