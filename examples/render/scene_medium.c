@@ -249,6 +249,32 @@ static void scene_relative(const scene_t *sc, const char *path, char *out, size_
   }
 }
 
+/* Without a scene "box" the first file's box is the medium's; the other
+ * files must have it too, else one of them was written in another unit or
+ * at another origin and would be read onto the wrong voxels' places. */
+static int check_vol_boxes(hetinv_context_t *ctx, jr_t *jr, const char files[][4400], const int *is_file, int first,
+                           const hetinv_vol_header_t *head) {
+  for (int p = first + 1; p < HETINV_PARAM_COUNT; ++p) {
+    if (!is_file[p]) continue;
+    char at[JR_PATH_MAX];
+    jr_key(at, "medium.vol", param_keys[p]);
+    hetinv_vol_header_t h;
+    hetinv_result_t r = hetinv_vol_read_header(ctx, files[p], &h);
+    if (r != HETINV_SUCCESS) return scene_lib_fail(jr, at, ctx, r);
+    for (int i = 0; i < 3; ++i) {
+      double scale = fmax(fmax(fabs(head->box_min[i]), fabs(head->box_max[i])), 1e-300);
+      if (fabs(h.box_min[i] - head->box_min[i]) > 1e-6 * scale || fabs(h.box_max[i] - head->box_max[i]) > 1e-6 * scale) {
+        return jr_fail(jr, at, "the file's box [%.9g, %.9g] x [%.9g, %.9g] x [%.9g, %.9g] is not medium.vol.%s's "
+                       "[%.9g, %.9g] x [%.9g, %.9g] x [%.9g, %.9g] (another unit or origin?); a scene \"box\" "
+                       "sets the box of every file", h.box_min[0], h.box_max[0], h.box_min[1], h.box_max[1],
+                       h.box_min[2], h.box_max[2], param_keys[first], head->box_min[0], head->box_max[0],
+                       head->box_min[1], head->box_max[1], head->box_min[2], head->box_max[2]);
+      }
+    }
+  }
+  return 0;
+}
+
 static int build_vol(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const cJSON *medium,
                      const cJSON *vol, grids_t *g) {
   static const char *const allowed[] = {"sigma_a", "sigma_s", "g", NULL};
@@ -294,6 +320,7 @@ static int build_vol(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const cJSON *
   int has_box = read_box(sc, jr, JR_OPTIONAL);
   if (has_box < 0) return -1;
   if (!has_box) {
+    if (check_vol_boxes(ctx, jr, (const char(*)[4400])files, is_file, first, &header) < 0) return -1;
     memcpy(sc->box_min, header.box_min, sizeof sc->box_min);
     memcpy(sc->box_max, header.box_max, sizeof sc->box_max);
   }
