@@ -11,8 +11,10 @@ if [ "$mode" = test ]; then
   # python3, python3-numpy, python3-matplotlib: the Python binding's tests (numpy
   # arrays are a tested path) and the Fig. 4(a) figure example; python3-venv,
   # python3-pip, python3-setuptools, python3-wheel: the offline
-  # `pip install --no-build-isolation bindings/python` test (python_pip_install)
-  pkgs="$pkgs libcmocka-dev doxygen clang libomp-dev binutils openmpi-bin libopenmpi-dev python3 python3-numpy python3-matplotlib"
+  # `pip install --no-build-isolation bindings/python` test (python_pip_install);
+  # libclang-rt-dev: clang's libFuzzer and sanitizer runtimes for the fuzz
+  # build, which clang only recommends (a fresh Debian 12 lacks them)
+  pkgs="$pkgs libcmocka-dev doxygen clang libclang-rt-dev libomp-dev binutils openmpi-bin libopenmpi-dev python3 python3-numpy python3-matplotlib"
   pkgs="$pkgs python3-venv python3-pip python3-setuptools python3-wheel"
 fi
 
