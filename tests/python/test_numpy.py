@@ -1,5 +1,6 @@
 """numpy is optional: with it, arrays come back as numpy arrays shaped like
-the grid they belong to, numpy inputs of any shape are read in C order, and
+the grid they belong to, numpy inputs are read in C order (in the shape the
+binding expects where it knows one, else refused), and
 float64 C-contiguous arrays cross into C without a copy; without it (or
 switched off) flat array.array. The numpy tests skip when numpy is not
 importable."""
@@ -277,7 +278,7 @@ class ZeroCopy(unittest.TestCase):
             m.set_grid("sigma_s", readonly)   # the library only reads it
         self.assertEqual(calls[0][2], readonly.ctypes.data)
         # Another dtype or a strided view is converted (once), and still read in C order.
-        for other in (grid.astype(np.float32), np.linspace(1.0, 2.0, 48)[::2], grid.T):
+        for other in (grid.astype(np.float32), np.linspace(1.0, 2.0, 48)[::2], np.asfortranarray(grid)):
             with spy("medium_set_grid", []) as calls:
                 m.set_grid("sigma_a", other)
             self.assertNotEqual(calls[0][2], other.ctypes.data)
@@ -322,6 +323,74 @@ class ZeroCopy(unittest.TestCase):
         self.assertEqual(calls[0][2], pi.ctypes.data)
         for a in (r.values, g.grad, pi):
             self.assertTrue(a.flags.c_contiguous and a.flags.writeable)
+
+
+@unittest.skipIf(np is None, "numpy is not importable")
+class Refusals(unittest.TestCase):
+    """Inputs a numpy user writes naturally that the binding would misread
+    are refused, naming what is wrong."""
+
+    def setUp(self):
+        self.ctx = hetinv.Context(seed=1, threads=1)
+        self.m = hetinv.Medium(self.ctx, (0, 0, 0), (4, 3, 2), (4, 3, 2))  # shape (2, 3, 4)
+
+    def tearDown(self):
+        self.ctx.close()
+
+    def test_a_grid_of_another_shape_is_refused_not_transposed(self):
+        grid = np.arange(24.0).reshape(2, 3, 4) + 1.0
+        with self.assertRaisesRegex(ValueError, r"values: an array of shape \(4, 3, 2\) where \(2, 3, 4\)"):
+            self.m.set_grid("sigma_s", grid.T.copy())  # (nx, ny, nz), as meshgrid(indexing="ij") gives
+        self.m.set_grid("sigma_s", grid[np.newaxis])  # a singleton axis is fine
+        self.m.set_grid("sigma_s", grid.ravel())      # and so is flat
+        with tempfile.TemporaryDirectory() as d:
+            with self.assertRaisesRegex(ValueError, r"data: an array of shape \(4, 3, 2\)"):
+                hetinv.vol_write(self.ctx, os.path.join(d, "t.vol"), grid.T.copy(), (4, 3, 2))
+        img = hetinv.Image(self.ctx, 3, 2, 1)
+        with self.assertRaisesRegex(ValueError, r"values: an array of shape \(3, 2\) where \(2, 3\)"):
+            img.set_channel(0, np.zeros((3, 2)))
+        self.m.fill(0.1, 2.0, 0.5).commit()
+        pmap = hetinv.ParamMap.identity(self.m, hetinv.FREE_ALL)
+        with self.assertRaisesRegex(ValueError, r"voxel_grad: an array of shape \(2, 3, 4, 3\)"):
+            pmap.pullback(np.zeros((2, 3, 4, 3)))  # the parameter axis last
+
+    def test_masked_and_string_arrays_are_refused(self):
+        grid = np.ma.masked_equal(np.ones(24), 0.0)
+        with self.assertRaisesRegex(TypeError, "values: a masked array"):
+            self.m.set_grid("sigma_s", grid)
+        with self.assertRaisesRegex(TypeError, "values of dtype <U"):
+            self.m.set_grid("sigma_s", np.array(["1.5"] * 24))
+        ms = hetinv.Measurements(self.ctx)
+        ms.add(hetinv.Emitter.ideal(self.m, (2, 1.5, 2), (0, 0, -1)), hetinv.Sensor.hemispherical(self.m, "z_max"))
+        with self.assertRaisesRegex(TypeError, "mask: a masked array"):
+            ms.set_mask(np.ma.masked_array([0], mask=[True]))
+        with self.assertRaisesRegex(TypeError, "mask: '0'; expected numbers or booleans"):
+            ms.set_mask(["0"])
+
+    def test_float32_range_is_checked_in_every_container(self):
+        img = hetinv.Image(self.ctx, 2, 1, 1)
+        for values in ([1e300, 1.0], array.array("d", [1e300, 1.0]), np.array([1e300, 1.0], dtype=object)):
+            with self.assertRaisesRegex(ValueError, "values: 1e\\+300 is beyond float32's range"):
+                img.set_channel(0, values)
+
+    def test_scalars_as_numpy_gives_them(self):
+        img = hetinv.Image(self.ctx, 2, 1, 2)
+        with self.assertRaisesRegex(TypeError, "expected an integer, got bool True"):
+            img[True]
+        img.set_attribute("frames", np.int64(3))  # an int, not a double
+        self.assertEqual(img.attributes["frames"], 3)
+        self.assertIsInstance(img.attributes["frames"], int)
+        with self.assertRaises(OverflowError):
+            img.set_attribute("big", np.int64(2**40))
+        self.m.fill(np.array(0.1), np.float64(2.0)[()], np.array([0.5]).mean(keepdims=True)[0])
+        self.assertEqual(self.m.get_voxel(0, 0, 0), (0.1, 2.0, 0.5))
+
+    def test_ints_inside_a_free_list_are_refused(self):
+        for free in ([hetinv.FREE_SIGMA_S], [hetinv.FREE_SIGMA_A, hetinv.FREE_SIGMA_S]):
+            with self.assertRaisesRegex(TypeError, "inside a list; give parameter names there"):
+                hetinv.ParamMap.identity(self.m, free)
+        both = hetinv.ParamMap.identity(self.m, ["sigma_a", "sigma_s"])
+        self.assertEqual(both.free_mask, hetinv.FREE_SIGMA_A | hetinv.FREE_SIGMA_S)
 
 
 if __name__ == "__main__":

@@ -342,6 +342,71 @@ class Ranges(ChildTest):
         """)
 
 
+class Threads(ChildTest):
+    """An estimator and an optimizer belong to one thread at a time: a call
+    from a second thread while the first is in one is refused (two threads'
+    passes on one estimator crashed the interpreter), and the owning thread
+    may call in again (a progress callback rendering with the run's
+    estimator)."""
+
+    def test_a_second_thread_is_refused_while_the_first_renders(self):
+        self.assertChildOk("""
+            import threading
+            big = hetinv.Medium(ctx, (0, 0, 0), (40, 40, 10), (40, 40, 10)).fill(0.1, 2.0, 0.5).commit()
+            bs = hetinv.Measurements(ctx)
+            bs.add(hetinv.Emitter.ideal(big, (20, 20, 10), (0, 0, -1)), hetinv.Sensor.hemispherical(big, "z_max"), p)
+            bmap = hetinv.ParamMap.identity(big, hetinv.FREE_ALL)
+            bs.set_values([0.5])
+            slow = hetinv.Estimator(ctx, photons=200000)
+            started, errors = threading.Event(), []
+            def first():
+                started.set()
+                slow.loss_gradient(big, bs, bmap)
+            t = threading.Thread(target=first)
+            t.start()
+            started.wait()
+            import time
+            for _ in range(200):  # until the first thread is inside its call
+                try:
+                    slow.loss_gradient(big, bs, bmap)
+                except RuntimeError as x:
+                    errors.append(str(x))
+                    break
+                time.sleep(0.001)
+            t.join()
+            print(errors[0] if errors else "no refusal")
+            slow.render(big, bs)  # free again once the first call returned
+        """, expect_in=["this hetinv.Estimator is in use by another thread: a hetinv.Estimator belongs to one thread at a time"])
+
+    def test_the_owning_thread_may_call_in_again(self):
+        self.assertChildOk("""
+            opt.add_stage(pmap, iterations=2)
+            seen = []
+            def progress(pr):
+                seen.append(len(est.render(m, ms).values))  # the run's own estimator, same thread
+                opt.get_pi()
+            opt.set_progress(progress)
+            print(opt.run(est), seen)
+        """, expect_in=["completed [1, 1]"])
+
+
+class SetInUse(ChildTest):
+    """A measurement set must not change while an optimizer made for it
+    exists (hetinv_optimizer_create): its values, weights, mask and clip
+    scales are refused as rows are, from a progress callback too."""
+
+    def test_changes_are_refused_while_an_optimizer_exists(self):
+        self.assertChildOk("""
+            expect(RuntimeError, ms.set_values, [0.7])
+            expect(RuntimeError, ms.set_weights, [2.0])
+            expect(RuntimeError, ms.set_mask, [0])
+            expect(RuntimeError, ms.set_clip_scales, [2.0])
+            expect(RuntimeError, ms.mask_saturated, 0.1)
+            opt.close()
+            ms.set_values([0.7])  # free again
+        """, expect_in=["raised RuntimeError cannot set the values of a measurement set an optimizer uses"])
+
+
 class Paths(ChildTest):
     """A NUL byte would end the C string early: another file would be written."""
 

@@ -21,8 +21,9 @@ _RANGES = {
 def integer(value, name, ctype="int32"):
     """`value` as a Python int that fits C type `ctype` ("int32", "uint32",
     "uint64", "size_t"). Accepts ints and integer-like objects (numpy
-    integers, bool); rejects floats and strings."""
-    if isinstance(value, float) or isinstance(value, (str, bytes)):
+    integers); rejects floats, strings and booleans (img[True] would be
+    channel 1, set_bounds(True, ...) the bounds of sigma_s)."""
+    if isinstance(value, (float, str, bytes, bool)) or type(value).__name__ == "bool_":
         raise TypeError("%s: expected an integer, got %s %r" % (name, type(value).__name__, value))
     try:
         v = operator.index(value)
@@ -36,7 +37,12 @@ def integer(value, name, ctype="int32"):
 
 
 def number(value, name):
-    """`value` as a float (for a C double): a real number, not a string or None."""
+    """`value` as a float (for a C double): a real number (a 0-d numpy array
+    of one included, as np.mean(..., keepdims) or a[()] give), not a string
+    or None."""
+    kind = getattr(getattr(value, "dtype", None), "kind", None)
+    if getattr(value, "ndim", None) == 0 and kind is not None and kind in "iuf":
+        value = value.item()
     if isinstance(value, (str, bytes)) or not isinstance(value, numbers.Real):
         raise TypeError("%s: expected a number, got %s %r" % (name, type(value).__name__, value))
     try:

@@ -1,7 +1,8 @@
 """Arrays in and out: numpy when it is importable, array.array otherwise.
 
-Inputs may be any sequence of numbers, an array.array or a numpy array (of
-any shape: it is read in C order). A numpy array that already has the C
+Inputs may be any sequence of numbers, an array.array or a numpy array,
+read in C order; where the caller knows the input's shape (a grid's
+(nz, ny, nx)), a numpy array of more than one axis must have it. A numpy array that already has the C
 type and is C-contiguous is passed to the library as it is, without a copy;
 any other array is converted once. Outputs are numpy arrays when numpy is
 available and enabled, else array.array('d') (or 'f' / 'B'). The library
@@ -55,20 +56,55 @@ class CArray:
         self.ptr, self.count, self._keep = ptr, count, keep
 
 
-def to_c(values, typecode="d", count=None, name="values"):
+_FLOAT32_MAX = 3.4028234663852886e38
+
+
+def _beyond_float32(values, name):
+    """A ValueError for the first finite value past float32's range (it
+    would become inf, and the library would name inf, not the value)."""
+    for v in values:
+        if abs(v) > _FLOAT32_MAX and abs(v) != float("inf"):
+            raise ValueError("%s: %r is beyond float32's range" % (name, float(v)))
+
+
+def _check_shape(values, shape, name):
+    """A numpy array of more than one axis must have `shape` (singleton
+    axes aside): read flat in C order, any other shape of the same size
+    would be silently transposed (an (nx, ny, nz) grid for (nz, ny, nx))."""
+    if shape is None or values.ndim <= 1:
+        return
+    given = tuple(n for n in values.shape if n != 1)
+    wanted = tuple(n for n in shape if n != 1)
+    if given != wanted:
+        raise ValueError("%s: an array of shape %s where %s is expected (read in C order, it would "
+                         "be reinterpreted; give it in that shape, or flat)"
+                         % (name, tuple(values.shape), tuple(shape)))
+
+
+def to_c(values, typecode="d", count=None, name="values", shape=None):
     """C array of `typecode` items from `values` (None gives a NULL pointer).
     `count`, when given, is the number of items required: give it whenever
     the C function reads a fixed number of items without being told how
-    many (a ValueError naming `name` otherwise)."""
+    many (a ValueError naming `name` otherwise). `shape`, when given, is the
+    shape a numpy array of more than one axis must have."""
     ctype = _CTYPE[typecode]
     if values is None:
         return CArray(None, 0, None)
     if _np is not None and isinstance(values, _np.ndarray):
-        # Refused where numpy would only warn: complex values lose their
-        # imaginary part, and a float64 past float32's range becomes inf
-        # (the library would then name inf, not the value given).
+        # Refused where numpy would only warn or guess: complex values lose
+        # their imaginary part; a masked array's mask would be dropped;
+        # strings would be parsed as numbers; a float64 past float32's range
+        # would become inf.
+        if isinstance(values, _np.ma.MaskedArray):
+            raise TypeError("%s: a masked array; its mask would be ignored: pass a.filled(value) or "
+                            "a.compressed()" % name)
         if values.dtype.kind == "c":
             raise TypeError("%s: complex values (dtype %s); expected real numbers" % (name, values.dtype))
+        if values.dtype.kind == "O":  # numbers as Python objects: through doubles, range checked
+            values = values.astype(_np.float64)
+        if values.dtype.kind not in "biuf":
+            raise TypeError("%s: values of dtype %s; expected numbers" % (name, values.dtype))
+        _check_shape(values, shape, name)
         if typecode == "f" and values.dtype.kind == "f" and values.size:
             finite = values[_np.isfinite(values)]
             big = finite[_np.abs(finite) > _np.finfo(_np.float32).max]
@@ -84,6 +120,10 @@ def to_c(values, typecode="d", count=None, name="values"):
         else:
             if isinstance(values, (bytes, bytearray)) and typecode != "B":
                 raise TypeError("%s: expected numbers, got %s" % (name, type(values).__name__))
+            if typecode == "f":  # through doubles, so that the range is checked, not cast
+                wide = array.array("d", values)
+                _beyond_float32(wide, name)
+                values = wide
             arr = array.array(typecode, values)
         n = len(arr)
         if n == 0:
@@ -96,6 +136,27 @@ def to_c(values, typecode="d", count=None, name="values"):
     if count is not None and n != count:
         raise ValueError("%s: expected %d values, got %d" % (name, count, n))
     return CArray(ptr, n, keep)
+
+
+def flags(mask, count=None, name="mask"):
+    """A C array of 0/1 bytes from truthy/falsy items: any non-zero number
+    is 1, as in C (256 must not wrap to 0). Strings and masked arrays are
+    refused rather than guessed at ('0' is a truthy string)."""
+    if mask is None:
+        return to_c(None)
+    if _np is not None and isinstance(mask, _np.ndarray):
+        if isinstance(mask, _np.ma.MaskedArray):
+            raise TypeError("%s: a masked array; its mask would be ignored: pass a.filled(value)" % name)
+        if mask.dtype.kind not in "biuf":
+            raise TypeError("%s: values of dtype %s; expected numbers or booleans" % (name, mask.dtype))
+        mask = (mask != 0).astype("uint8")
+    elif not isinstance(mask, (bytes, bytearray)):
+        items = list(mask)
+        for m in items:
+            if isinstance(m, (str, bytes)):
+                raise TypeError("%s: %r; expected numbers or booleans" % (name, m))
+        mask = [1 if m else 0 for m in items]
+    return to_c(mask, "B", count, name)
 
 
 def is_numpy(values):

@@ -22,9 +22,17 @@ from it, closing an emitter the sets that use it. While a long C call runs
 (an optimizer run, whose progress callback may call back into Python, or a
 render, while another thread may call close()), its objects are pinned and
 closing any of them, or anything they depend on, is refused.
+
+An estimator and an optimizer belong to one thread at a time (their C
+headers): methods marked @one_thread claim the object for the calling
+thread, and a call from another thread while it is claimed raises instead
+of racing in C (two threads' passes on one estimator crashed the
+interpreter). The owning thread may call in again (an optimizer's progress
+callback rendering with the run's estimator).
 """
 import contextlib
 import ctypes
+import functools
 import itertools
 import threading
 import weakref
@@ -40,7 +48,7 @@ class _Owner:
     """Owns one C handle; see the module's docstring."""
 
     __slots__ = ("h", "destroy", "parents", "children", "live", "pending", "busy", "key",
-                 "__weakref__")
+                 "user", "uses", "__weakref__")
 
     def __init__(self, handle, destroy, parents):
         self.h = handle            # ctypes.c_void_p; NULL once destroyed
@@ -51,6 +59,8 @@ class _Owner:
         self.pending = False       # closed or finalized while children were alive
         self.busy = 0              # > 0 while a long C call uses it (see pinned())
         self.key = next(_keys)
+        self.user = None           # the thread that has claimed it (see exclusive())
+        self.uses = 0              # its nested claims
         for p in parents:
             self.add_parent(p)
 
@@ -114,6 +124,41 @@ def pinned(*objects):
         with _lock:
             for o in owners:
                 o.busy -= 1
+
+
+@contextlib.contextmanager
+def exclusive(*objects):
+    """Claim `objects` for the calling thread during the block; a
+    RuntimeError if another thread has claimed one of them."""
+    me = threading.get_ident()
+    owners = [o._owner for o in objects]
+    with _lock:
+        for o, owner in zip(objects, owners):
+            if owner.user is not None and owner.user != me:
+                name = type(o).__name__
+                raise RuntimeError("this hetinv.%s is in use by another thread: a hetinv.%s belongs to one "
+                                   "thread at a time (make one per thread)" % (name, name))
+        for owner in owners:
+            owner.user = me
+            owner.uses += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            for owner in owners:
+                owner.uses -= 1
+                if owner.uses == 0:
+                    owner.user = None
+
+
+def one_thread(method):
+    """A method of an object that belongs to one thread at a time: it
+    claims the object for its call (exclusive())."""
+    @functools.wraps(method)
+    def claimed(self, *args, **kwargs):
+        with exclusive(self):
+            return method(self, *args, **kwargs)
+    return claimed
 
 
 def handle_arg(obj, cls, name):

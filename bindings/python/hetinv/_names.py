@@ -52,16 +52,19 @@ def lookup(value, table, what):
 
 
 def free_mask(free):
-    """A HETINV_FREE() mask from an int, a parameter name, or an iterable of
-    names / parameter ids."""
+    """A HETINV_FREE() mask from an int (a FREE_* mask), a parameter name, or
+    an iterable of names. An int inside an iterable is refused: a FREE_*
+    mask and a PARAM_* id are both ints (FREE_SIGMA_A == PARAM_SIGMA_S), so
+    it could mean either parameter."""
     if not isinstance(free, str) and not hasattr(free, "__iter__"):
         return integer(free, "free", "uint32")
     if isinstance(free, str):
         free = [free]
     mask = 0
     for p in free:
-        bit = lookup(p, PARAMS, "parameter")
-        if not 0 <= bit < 32:
-            raise OverflowError("free: parameter %d does not fit a 32-bit mask" % bit)
-        mask |= 1 << bit
+        if not isinstance(p, str):
+            raise TypeError("free: %r inside a list; give parameter names there (\"sigma_a\", \"sigma_s\", "
+                            "\"g\"), or one FREE_* mask alone (FREE_SIGMA_A | FREE_SIGMA_S): an int in a list "
+                            "could be a mask or a parameter id" % (p,))
+        mask |= 1 << lookup(p, PARAMS, "parameter")
     return mask

@@ -5,7 +5,7 @@ from collections import namedtuple
 from . import _arrays
 from ._args import integer, number
 from ._errors import check
-from ._handle import Handle, handle_arg, pinned
+from ._handle import Handle, handle_arg, one_thread, pinned
 from ._lib import lib
 from ._names import ESTIMATOR_PARAMS, GAIN_MODE_NAMES, GAIN_MODES, lookup
 from ._structs import RenderStats
@@ -80,18 +80,21 @@ class Estimator(Handle):
         for name, value in params.items():
             self.set_param(name, value)
 
+    @one_thread
     def set_param(self, param, value):
         check(lib.estimator_set_param(self._ptr, lookup(param, ESTIMATOR_PARAMS,
                                                         "estimator parameter"),
                                       number(value, "value")))
         return self
 
+    @one_thread
     def get_param(self, param):
         v = ctypes.c_double()
         check(lib.estimator_get_param(self._ptr, lookup(param, ESTIMATOR_PARAMS,
                                                         "estimator parameter"), ctypes.byref(v)))
         return v.value
 
+    @one_thread
     def render(self, medium, measurements):
         """Render every value of the set: Render(values, std_errors, ballistic)."""
         mp, sp = _inputs(medium, measurements)
@@ -106,6 +109,7 @@ class Estimator(Handle):
         r._rows = rows
         return r
 
+    @one_thread
     def gradient(self, medium, measurements, cotangent, param_map):
         """Σ_n cotangent[n]·∂I_n/∂π: Gradient(grad, std_errors), each shaped
         param_map.shape with numpy. cotangent: value_count values, any shape."""
@@ -119,6 +123,7 @@ class Estimator(Handle):
             check(lib.estimator_gradient(self._ptr, mp, sp, c.ptr, c.count, pm, pg, pe, k))
         return Gradient(grad, errors)
 
+    @one_thread
     def jvp(self, medium, measurements, param_map, tangent):
         """J·v: for every value n, Σ_k ∂I_n/∂π_k·tangent[k]. Returns
         Gradient-like (values, std_errors), flat like Render.values."""
@@ -132,6 +137,7 @@ class Estimator(Handle):
             check(lib.estimator_jvp(self._ptr, mp, sp, pm, v.ptr, v.count, pj, pe, n))
         return Gradient(jv, errors)
 
+    @one_thread
     def fisher(self, medium, measurements, variances, param_map, replicates=8):
         """F = JᵀΣ⁻¹J of the map's entries (unbiased: two independent
         Jacobian estimates per replicate), with standard errors (bound.h)."""
@@ -146,6 +152,7 @@ class Estimator(Handle):
                                        integer(replicates, "replicates", "int32"), pf, pe, k))
         return Fisher(f, errors)
 
+    @one_thread
     def crb(self, medium, measurements, variances, param_map, replicates=8):
         """The Cramér–Rao bound of every map entry (bound.h): Bound(sd,
         std_errors, lower, positive_definite)."""
@@ -163,6 +170,7 @@ class Estimator(Handle):
                                     ctypes.byref(pd)))
         return Bound(sd, errors, lower, bool(pd.value))
 
+    @one_thread
     def fisher_diagonal(self, medium, measurements, variances, param_map, probes=16):
         """The diagonal of F by Hutchinson probes, for maps too large for the
         dense matrix; 1/sqrt of it is a lower bound of the CRB. Returns
@@ -178,6 +186,7 @@ class Estimator(Handle):
                                                 integer(probes, "probes", "int32"), pd, pe, k))
         return Gradient(d, errors)
 
+    @one_thread
     def fisher_blocks(self, medium, measurements, variances, param_map, spacing=2, replicates=4):
         """Each cell's block of F (its own free parameters), matrix-free for
         maps of any size: probes on classes of cells `spacing` apart
@@ -199,6 +208,7 @@ class Estimator(Handle):
                                               integer(replicates, "replicates", "int32"), pb, pe, k))
         return Gradient(b, errors)
 
+    @one_thread
     def loss_gradient(self, medium, measurements, param_map):
         """The loss of Eq. (9) against the set's measured values, its
         gradient with respect to π, and the rendered values."""
@@ -213,6 +223,7 @@ class Estimator(Handle):
         return LossGradient(loss.value, grad, rendered)
 
     @property
+    @one_thread
     def gain_mode(self):
         """Calibration gain of loss_gradient: "none" (default), "global" or
         "per_emitter" (settable by name or id). The model is scaled by the
@@ -222,9 +233,11 @@ class Estimator(Handle):
         return GAIN_MODE_NAMES.get(m.value, m.value)
 
     @gain_mode.setter
+    @one_thread
     def gain_mode(self, mode):
         check(lib.estimator_set_gain_mode(self._ptr, lookup(mode, GAIN_MODES, "gain mode")))
 
+    @one_thread
     def gains(self):
         """The gains fitted by the last loss_gradient: one (global) or one
         per emitter of its set, in order of first use (flat array)."""
@@ -234,6 +247,7 @@ class Estimator(Handle):
         check(lib.estimator_get_gains(self._ptr, po, n.value, ctypes.byref(n)))
         return out
 
+    @one_thread
     def stats(self):
         """RenderStats of the last render (photons, seconds, specular,
         absorbed, escaped[6], ...)."""

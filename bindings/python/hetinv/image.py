@@ -8,6 +8,7 @@ file, so a script reads them here without an OpenEXR module of its own:
     img.attributes["hetinv:key"]
 """
 import ctypes
+import numbers
 
 from . import _arrays
 from ._args import integer, number, path as _path
@@ -88,10 +89,11 @@ class Image(Handle):
     __getitem__ = channel
 
     def set_channel(self, channel, values):
-        """Overwrite one channel with width·height numbers (rounded to float32)."""
+        """Overwrite one channel with width·height numbers (rounded to
+        float32): flat, row 0 first, or a numpy array of shape (height, width)."""
         w, h, _ = self.size
         i = self.channel_index(channel)
-        src = _arrays.to_c(values, "f", w * h, "values")
+        src = _arrays.to_c(values, "f", w * h, "values", shape=(h, w))
         ctypes.memmove(lib.image_channel_data(self._ptr, i), src.ptr, w * h * 4)
         return self
 
@@ -129,7 +131,7 @@ class Image(Handle):
         key = _text(name, "name")
         if isinstance(value, str):
             check(lib.image_set_attribute_string(self._ptr, key, _text(value, name)))
-        elif isinstance(value, int) and not isinstance(value, bool):
+        elif isinstance(value, numbers.Integral) and not isinstance(value, bool):  # numpy ints too
             check(lib.image_set_attribute_int(self._ptr, key, integer(value, name)))
         else:
             check(lib.image_set_attribute_double(self._ptr, key, number(value, name)))

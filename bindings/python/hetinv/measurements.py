@@ -39,9 +39,7 @@ class Measurements(Handle):
         sp = handle_arg(sensor, Sensor, "sensor")
         if pathlength is not None:
             pp = handle_arg(pathlength, Pathlength, "pathlength")
-        if any(not o.closed for o in self._optimizers):
-            raise RuntimeError("cannot add a row to a measurement set an optimizer uses "
-                               "(close the optimizer first)")
+        self._unused("add a row to")
         if pathlength is None:
             pathlength = self.__dict__.get("_steady")
             if pathlength is None or pathlength.closed:
@@ -103,13 +101,23 @@ class Measurements(Handle):
                                                                    len(values)))
         return _arrays.shaped(values[offset:offset + shape[0] * shape[1] * shape[2]], shape)
 
+    def _unused(self, what):
+        """The C set must not change while an optimizer made for it exists
+        (hetinv_optimizer_create): its masks and checkpoints describe it.
+        A change from a progress callback altered a run from the next
+        iteration on."""
+        if any(not o.closed for o in self._optimizers):
+            raise RuntimeError("cannot %s a measurement set an optimizer uses (close the optimizer first)" % what)
+
     def set_values(self, values, std_errors=None):
+        self._unused("set the values of")
         v = _arrays.to_c(values, "d", name="values")
         e = _arrays.to_c(std_errors, "d", None if std_errors is None else v.count, "std_errors")
         check(lib.measurements_set_values(self._ptr, v.ptr, e.ptr, v.count))
         return self
 
     def set_weights(self, weights):
+        self._unused("set the weights of")
         w = _arrays.to_c(weights, "d", name="weights")
         check(lib.measurements_set_weights(self._ptr, w.ptr, w.count))
         return self
@@ -120,6 +128,7 @@ class Measurements(Handle):
         is below the data and where it is above (None: 1)."""
         if below is None and above is None:
             raise ValueError("set_clip_scales: give below, above or both")
+        self._unused("set the clip scales of")
         b = _arrays.to_c(below, "d", name="below")
         a = _arrays.to_c(above, "d", b.count if below is not None else None, "above")
         count = b.count if below is not None else a.count
@@ -128,11 +137,8 @@ class Measurements(Handle):
 
     def set_mask(self, mask):
         """mask: value_count truthy/falsy items (0 = left out of the loss)."""
-        if not hasattr(mask, "dtype") and not isinstance(mask, (bytes, bytearray)):
-            mask = [1 if m else 0 for m in mask]
-        elif hasattr(mask, "dtype"):
-            mask = (mask != 0).astype("uint8")  # any non-zero means "used", as in C
-        m = _arrays.to_c(mask, "B", name="mask")
+        self._unused("set the mask of")
+        m = _arrays.flags(mask, name="mask")  # any non-zero means "used", as in C
         check(lib.measurements_set_mask(self._ptr, m.ptr, m.count))
         return self
 
@@ -140,6 +146,7 @@ class Measurements(Handle):
         """Mask out (mask 0) every value whose measured value is at or above
         `level`, keeping the rest of the mask; returns how many values are
         at or above it."""
+        self._unused("mask values of")
         n = ctypes.c_size_t()
         check(lib.measurements_mask_saturated(self._ptr, number(level, "level"), ctypes.byref(n)))
         return n.value

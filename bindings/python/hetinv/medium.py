@@ -78,9 +78,10 @@ class Medium(Handle):
         return a.value, s.value, g.value
 
     def set_grid(self, param, values):
-        """Set one parameter of every voxel (voxel_count values, x fastest;
-        a numpy array of any shape is read in C order, so shape (nz, ny, nx))."""
-        arr = _arrays.to_c(values, "d", name="values")
+        """Set one parameter of every voxel (voxel_count values, x fastest:
+        flat, or a numpy array of shape self.shape = (nz, ny, nx); another
+        shape of the same size is refused, not read transposed)."""
+        arr = _arrays.to_c(values, "d", name="values", shape=self.shape)
         check(lib.medium_set_grid(self._ptr, param_id(param), arr.ptr, arr.count))
         return self
 
@@ -195,12 +196,16 @@ def vol_read(ctx, path):
 
 def vol_write(ctx, path, data, dims, box_min=(0.0, 0.0, 0.0), box_max=(1.0, 1.0, 1.0),
               channels=1):
-    """Write float values (rounded to float32) as a .vol file (atomic)."""
+    """Write float values (rounded to float32) as a .vol file (atomic).
+    dims = (nx, ny, nz), x fastest: flat data, or a numpy array of shape
+    (nz, ny, nx) (with a last axis of `channels` if more than one)."""
     c = _ctx(ctx)
     header = VolHeader()
     header.dims[:] = list(_arrays.fixed(dims, 3, "i", "dims"))
     header.channels = integer(channels, "channels")
     header.box_min[:] = list(_arrays.fixed(box_min, 3, "d", "box_min"))
     header.box_max[:] = list(_arrays.fixed(box_max, 3, "d", "box_max"))
-    arr = _arrays.to_c(data, "f", name="data")
+    nx, ny, nz = header.dims
+    shape = (nz, ny, nx) + ((header.channels,) if header.channels > 1 else ())
+    arr = _arrays.to_c(data, "f", name="data", shape=shape)
     check(lib.vol_write(c, _path(path), ctypes.byref(header), arr.ptr, arr.count))

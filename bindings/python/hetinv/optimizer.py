@@ -5,7 +5,7 @@ from collections import namedtuple
 from . import _arrays
 from ._args import integer, number, path as _path
 from ._errors import HetinvError, check
-from ._handle import Handle, handle_arg, pinned
+from ._handle import Handle, exclusive, handle_arg, one_thread, pinned
 from ._lib import PROGRESS_FN, lib
 from ._names import COORDINATES, METHODS, OPTIMIZER_PARAMS, STOP_REASONS, STOP_REASONS_INV, lookup  # noqa: F401
 from .context import Context
@@ -30,13 +30,7 @@ def optimizer_param_bounds(param):
 
 def _mask_bytes(mask, count, name):
     """`count` flags as bytes: the library reads exactly that many, unasked."""
-    if mask is None:
-        return _arrays.to_c(None)
-    if hasattr(mask, "dtype"):
-        mask = (mask != 0).astype("uint8")  # 256 must not wrap to 0
-    else:
-        mask = [1 if m else 0 for m in mask]
-    return _arrays.to_c(mask, "B", count, name)
+    return _arrays.flags(mask, count, name)
 
 
 class Optimizer(Handle):
@@ -81,6 +75,7 @@ class Optimizer(Handle):
         for name, value in params.items():
             self.set_param(name, value)
 
+    @one_thread
     def set_param(self, param, value):
         p = lookup(param, OPTIMIZER_PARAMS, "optimizer parameter")
         if p == OPTIMIZER_PARAMS["method"]:
@@ -90,18 +85,21 @@ class Optimizer(Handle):
         check(lib.optimizer_set_param(self._ptr, p, number(value, "value")))
         return self
 
+    @one_thread
     def get_param(self, param):
         v = ctypes.c_double()
         check(lib.optimizer_get_param(self._ptr, lookup(param, OPTIMIZER_PARAMS,
                                                         "optimizer parameter"), ctypes.byref(v)))
         return v.value
 
+    @one_thread
     def set_bounds(self, param, lo, hi):
         """Box of one physical parameter ("sigma_a", "sigma_s", "g"); hi may be float("inf")."""
         check(lib.optimizer_set_bounds(self._ptr, param_id(param), number(lo, "lo"),
                                        number(hi, "hi")))
         return self
 
+    @one_thread
     def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None, epsilon_start=0.0,
                   average_window=0, settle_epsilon=0.0, settle_fraction=0.0):
         """Append a stage on `param_map`. frozen: param_map.size flags
@@ -127,6 +125,7 @@ class Optimizer(Handle):
         self._maps.append(param_map)
         return self
 
+    @one_thread
     def add_layerwise_stages(self, param_map, layer_thickness, layers, iterations=0):
         """Append the layer-wise stages of the paper's Fig. 2(b) (identity map,
         pathlength-resolved frontlit rows)."""
@@ -139,6 +138,7 @@ class Optimizer(Handle):
         self._maps.extend([param_map] * layers)
         return self
 
+    @one_thread
     def set_progress(self, fn):
         """Call fn(Progress) after every iteration; a true return value stops
         the run (stop reason "callback"). An exception raised by fn stops
@@ -168,20 +168,24 @@ class Optimizer(Handle):
         self._callback = cb
         return self
 
+    @one_thread
     def set_checkpoint(self, path):
         """Write checkpoints to `path` during runs (None: stop)."""
         check(lib.optimizer_set_checkpoint(self._ptr, None if path is None else _path(path)))
         return self
 
+    @one_thread
     def save(self, path):
         check(lib.optimizer_save(self._ptr, _path(path)))
 
+    @one_thread
     def resume(self, path):
         """Restore a checkpoint written by an identically configured optimizer."""
         self._not_running("resume")
         check(lib.optimizer_resume(self._ptr, _path(path)))
         return self
 
+    @one_thread
     def run(self, estimator):
         """Run the schedule; returns why it ended: "completed", "time_budget"
         or "callback"."""
@@ -194,7 +198,7 @@ class Optimizer(Handle):
         running_callback = self._callback  # alive even if the callback replaces itself
         self._running = True
         try:
-            with pinned(self, estimator):
+            with exclusive(estimator), pinned(self, estimator):  # the run renders with it
                 rc = lib.optimizer_run(me, ep, ctypes.byref(reason))
         finally:
             self._running = False
@@ -213,12 +217,14 @@ class Optimizer(Handle):
             raise RuntimeError("Optimizer.%s: the optimizer is running (called from its "
                                "progress callback?)" % what)
 
+    @one_thread
     def result(self):
         """The current estimate as a new committed Medium."""
         h = ctypes.c_void_p()
         check(lib.optimizer_result(self._ptr, ctypes.byref(h)))
         return Medium._adopt_new(h, self.context)
 
+    @one_thread
     def get_pi(self, averaged=True):
         """The current stage's π: the trailing average or the last iterate."""
         sizes = []
@@ -239,6 +245,7 @@ class Optimizer(Handle):
                     raise
         raise error
 
+    @one_thread
     def losses(self):
         """The loss of every iteration run so far."""
         n = ctypes.c_size_t()

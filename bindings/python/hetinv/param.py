@@ -18,8 +18,9 @@ def _medium(medium, name="medium"):
 class ParamMap(Handle):
     """hetinv_param_map_t: ParamMap.identity / coarse / broadcast(medium, ..., free).
 
-    `free` is a mask (hetinv.FREE_ALL, FREE_SIGMA_S, ...), a parameter name
-    or a list of them, e.g. ("sigma_a", "sigma_s").
+    `free` is a mask (hetinv.FREE_ALL, FREE_SIGMA_A | FREE_SIGMA_S, ...), a
+    parameter name, or a list of names, e.g. ("sigma_a", "sigma_s"); an int
+    inside a list is refused (a FREE_* mask or a PARAM_* id?).
 
     π is parameter-major: one block per free parameter (in the order σa, σs,
     g: self.params), each block the map's cells in linear order, x fastest.
@@ -41,6 +42,7 @@ class ParamMap(Handle):
         m = cls._wrap(h, [medium.context])
         m.context = medium.context
         m._voxel_count = medium.voxel_count  # V of the grid: pullback reads 3·V values
+        m._grid_shape = tuple(medium.shape)  # (nz, ny, nx): pullback's blocks
         return m
 
     @classmethod
@@ -122,7 +124,7 @@ class ParamMap(Handle):
     def apply(self, pi, medium):
         """Write π into an uncommitted medium."""
         mp = _medium(medium)
-        a = _arrays.to_c(pi, "d", name="pi")
+        a = _arrays.to_c(pi, "d", name="pi", shape=self.shape)
         check(lib.param_map_apply(self._ptr, a.ptr, a.count, mp))
         return medium
 
@@ -138,7 +140,7 @@ class ParamMap(Handle):
     def pullback(self, voxel_grad):
         """∂/∂π (shaped self.shape with numpy) from 3·V voxel gradients (σa
         of every voxel, then σs, then g: e.g. an array of shape (3, nz, ny, nx))."""
-        g = _arrays.to_c(voxel_grad, "d", 3 * self._voxel_count, "voxel_grad")
+        g = _arrays.to_c(voxel_grad, "d", 3 * self._voxel_count, "voxel_grad", shape=(3,) + self._grid_shape)
         n = self.size
         out, ptr = _arrays.empty(n, "d", self.shape)
         check(lib.param_map_pullback(self._ptr, g.ptr, ptr, n))

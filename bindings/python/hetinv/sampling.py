@@ -74,7 +74,7 @@ class Emitter(Handle):
             w, hgt = integer(w, "pattern width"), integer(hgt, "pattern height")
             if w < 0 or hgt < 0:
                 raise ValueError("pattern_shape: (%d, %d) has a negative side" % (w, hgt))
-            pat = _arrays.to_c(pattern, "d", w * hgt, "pattern")
+            pat = _arrays.to_c(pattern, "d", w * hgt, "pattern", shape=(hgt, w))
         h = ctypes.c_void_p()
         check(lib.emitter_create_area(mp, face_id(face),
                                       _arrays.fixed(direction, 3, "d", "direction"),
