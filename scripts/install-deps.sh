@@ -26,7 +26,7 @@ for p in $pkgs; do
 done
 [ -z "$missing" ] && exit 0
 
-echo "installing:$missing"
+echo "installing:$missing (apt prints nothing meanwhile; a few minutes on a fresh machine)"
 if [ "$(id -u)" -eq 0 ]; then
   sudo=""
 elif command -v sudo >/dev/null 2>&1; then
