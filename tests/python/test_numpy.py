@@ -385,6 +385,11 @@ class Refusals(unittest.TestCase):
         self.m.fill(np.array(0.1), np.float64(2.0)[()], np.array([0.5]).mean(keepdims=True)[0])
         self.assertEqual(self.m.get_voxel(0, 0, 0), (0.1, 2.0, 0.5))
 
+    def test_a_scalar_or_nested_list_names_the_parameter(self):
+        for values in (3.0, [[1.0] * 12, [2.0] * 12]):
+            with self.assertRaisesRegex(TypeError, "values: expected a flat sequence of numbers"):
+                self.m.set_grid("sigma_a", values)
+
     def test_ints_inside_a_free_list_are_refused(self):
         for free in ([hetinv.FREE_SIGMA_S], [hetinv.FREE_SIGMA_A, hetinv.FREE_SIGMA_S]):
             with self.assertRaisesRegex(TypeError, "inside a list; give parameter names there"):

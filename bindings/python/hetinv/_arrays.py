@@ -120,11 +120,15 @@ def to_c(values, typecode="d", count=None, name="values", shape=None):
         else:
             if isinstance(values, (bytes, bytearray)) and typecode != "B":
                 raise TypeError("%s: expected numbers, got %s" % (name, type(values).__name__))
-            if typecode == "f":  # through doubles, so that the range is checked, not cast
-                wide = array.array("d", values)
-                _beyond_float32(wide, name)
-                values = wide
-            arr = array.array(typecode, values)
+            try:
+                if typecode == "f":  # through doubles, so that the range is checked, not cast
+                    wide = array.array("d", values)
+                    _beyond_float32(wide, name)
+                    values = wide
+                arr = array.array(typecode, values)
+            except TypeError as x:  # a scalar, a nested list, a string inside
+                raise TypeError("%s: expected a flat sequence of numbers (or a numpy array), got %s: %s"
+                                % (name, type(values).__name__, x)) from None
         n = len(arr)
         if n == 0:
             buf = (ctype * 1)()
