@@ -390,6 +390,14 @@ class Refusals(unittest.TestCase):
             with self.assertRaisesRegex(TypeError, "values: expected a flat sequence of numbers"):
                 self.m.set_grid("sigma_a", values)
 
+    def test_handles_say_they_cannot_be_pickled(self):
+        import copy
+        import pickle
+        for f in (copy.deepcopy, pickle.dumps):
+            with self.assertRaisesRegex(TypeError, "hetinv.Medium holds a C object and cannot be pickled or deep-copied; use clone"):
+                f(self.m)
+        self.assertIs(copy.copy(self.m), self.m)
+
     def test_ints_inside_a_free_list_are_refused(self):
         for free in ([hetinv.FREE_SIGMA_S], [hetinv.FREE_SIGMA_A, hetinv.FREE_SIGMA_S]):
             with self.assertRaisesRegex(TypeError, "inside a list; give parameter names there"):

@@ -233,6 +233,15 @@ class Handle:
         self.close()
         return False
 
+    def __reduce_ex__(self, protocol):
+        # pickle and deepcopy would fail inside ctypes ("objects containing
+        # pointers cannot be pickled"); say what the object is instead.
+        raise TypeError("hetinv.%s holds a C object and cannot be pickled or deep-copied%s"
+                        % (type(self).__name__, "; use clone()" if hasattr(self, "clone") else ""))
+
+    def __copy__(self):
+        return self  # one C object: a shallow copy is the object itself
+
     def __repr__(self):
         state = "closed" if self.closed else "0x%x" % self._owner.h.value
         return "<hetinv.%s %s>" % (type(self).__name__, state)
