@@ -201,7 +201,9 @@ hetinv_result_t hv_comm_agree(const hetinv_context_t *ctx, hetinv_result_t statu
 }
 
 hetinv_result_t hv_comm_agree_status(const hetinv_context_t *ctx, hetinv_result_t status) {
-  return agree(ctx, status, 0, "nothing", false);
+  /* Key 0: a rank here met another rank's agreement at another place. */
+  return agree(ctx, status, 0, "the step of the program they are at (one rank's agreement met another "
+               "rank's call elsewhere)", false);
 }
 
 hetinv_result_t hv_comm_or(const hetinv_context_t *ctx, uint32_t *flags) {

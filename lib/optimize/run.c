@@ -7,8 +7,14 @@
 #include "core/alloc.h"
 #include "core/comm.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "estimator/estimator_internal.h"
 #include "optimize/optimizer_internal.h"
+
+/* Keys of the run's agreements under MPI, one per place, so that ranks at
+ * different places (or a program's hetinv_context_agree, key 0) are told
+ * apart instead of pairing up and hanging at the next collective. */
+enum { AGREE_ITERATION = 1, AGREE_NEXT_STAGE = 2, AGREE_CHECKPOINT = 3, AGREE_FINAL_CHECKPOINT = 4 };
 
 static double now_seconds(void) {
   struct timespec ts;
@@ -99,7 +105,7 @@ static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est,
   if (r == HETINV_SUCCESS) r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_EPOCH, (double)(opt->iteration + 1));
   /* Under MPI a rank that failed above must not leave the others waiting
    * in the loss gradient's collectives. */
-  r = hv_comm_agree(opt->ctx, r, 0, "nothing");
+  r = hv_comm_agree(opt->ctx, r, AGREE_ITERATION, "the step of the run they are at");
   if (r == HETINV_SUCCESS) r = hetinv_estimator_loss_gradient(est, medium, sub, st->map, loss, NULL, opt->grad, opt->k);
   hetinv_measurements_destroy(&sub);
   hetinv_medium_destroy(&medium);
@@ -173,6 +179,20 @@ static hetinv_result_t check_estimator(hetinv_optimizer_t *opt, const hetinv_est
   return HETINV_SUCCESS;
 }
 
+/* What every rank's run must share before it starts: the tunables, the
+ * stages' resolved lengths, where the run stands (a checkpoint resumed on
+ * some ranks only) and whether it writes checkpoints (rank 0 writes, all
+ * agree on each write). A rank that ran more iterations than another
+ * would leave the loop while the others wait in its collectives. */
+static uint64_t schedule_key(const hetinv_optimizer_t *opt) {
+  uint64_t h = hv_fnv1a_doubles(HV_FNV_OFFSET, opt->param, HETINV_OPTIMIZER_PARAM_COUNT_);
+  const int64_t where[5] = {opt->stage_count, opt->stage, opt->stage_iteration, opt->iteration,
+                            opt->checkpoint_path != NULL};
+  h = hv_fnv1a(h, where, sizeof where);
+  for (int32_t s = 0; s < opt->stage_count; ++s) h = hv_fnv1a(h, &opt->stages[s].iterations, sizeof(int64_t));
+  return h;
+}
+
 HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
                                                 hetinv_estimator_t *estimator,
                                                 hetinv_stop_reason_t *reason) {
@@ -200,7 +220,9 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
   if (r == HETINV_SUCCESS && (picked == NULL || scratch == NULL)) {
     r = HV_FAIL(ctx, HETINV_ERROR_OUT_OF_MEMORY, "cannot allocate the minibatch");
   }
-  r = hv_comm_agree(ctx, r, 0, "nothing");
+  r = hv_comm_agree(ctx, r, r == HETINV_SUCCESS ? schedule_key(opt) : 0,
+                    "the optimizer's tunables, stages or progress (iterations done: a checkpoint resumed on some "
+                    "ranks only?)");
   if (r != HETINV_SUCCESS) {
     hv_free(ctx, picked);
     hv_free(ctx, scratch);
@@ -217,7 +239,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
         why = HETINV_STOP_COMPLETED;
         break;
       }
-      r = hv_comm_agree(ctx, next_stage(opt), 0, "nothing");
+      r = hv_comm_agree(ctx, next_stage(opt), AGREE_NEXT_STAGE, "the step of the run they are at");
       continue;
     }
     /* Past the budget by some rank's clock after the last iteration (the
@@ -237,7 +259,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
     opt->losses[opt->loss_count++] = loss;
     if (opt->checkpoint_path && opt->iteration % interval == 0) {
       /* Rank 0 writes; every rank learns whether it could. */
-      r = hv_comm_agree(ctx, hv_checkpoint_write(opt, opt->checkpoint_path), 0, "nothing");
+      r = hv_comm_agree(ctx, hv_checkpoint_write(opt, opt->checkpoint_path), AGREE_CHECKPOINT,
+                        "the step of the run they are at");
     }
     uint32_t stop = budget > 0.0 && opt->elapsed >= budget ? STOP_BUDGET : 0;
     if (r == HETINV_SUCCESS && opt->progress) {
@@ -264,7 +287,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_run(hetinv_optimizer_t *optimizer,
     over_budget = (stop & STOP_BUDGET) != 0;
   }
   if (r == HETINV_SUCCESS && opt->checkpoint_path) {
-    r = hv_comm_agree(ctx, hv_checkpoint_write(opt, opt->checkpoint_path), 0, "nothing");
+    r = hv_comm_agree(ctx, hv_checkpoint_write(opt, opt->checkpoint_path), AGREE_FINAL_CHECKPOINT,
+                      "the step of the run they are at");
   }
   hetinv_estimator_set_param(estimator, HETINV_ESTIMATOR_EPOCH, epoch);
   hv_free(ctx, picked);

@@ -224,6 +224,20 @@ static void a_checkpoint_rank_0_cannot_write_fails_every_rank(void **state) {
   ht_tmpdir_remove(); /* each rank made its own */
 }
 
+/* A schedule of 3 + rank iterations: rank 0 left the loop while rank 1
+ * waited in its fourth iteration's collectives, and a program's agreement
+ * after the run paired with one inside that iteration (both had key 0);
+ * then every rank hung. Now the run refuses to start, on every rank. */
+static void schedules_that_differ_are_refused_before_the_run(void **state) {
+  scene_t *s = *state;
+  hetinv_optimizer_t *opt = optimizer(s, 3 + s->rank);
+  hetinv_result_t r = hetinv_optimizer_run(opt, s->est, NULL);
+  assert_int_equal(r, HETINV_ERROR_INVALID_ARGUMENT);
+  assert_message_contains("hetinv_optimizer_run: the 2 ranks' calls differ in the optimizer's tunables, stages or progress");
+  assert_ok(hetinv_context_agree(s->ctx, HETINV_SUCCESS)); /* and the ranks are in step again */
+  hetinv_optimizer_destroy(&opt);
+}
+
 /* Rank 0's progress callback is slow. The other rank, waiting for it in
  * the next iteration's collectives, counted those waits on its clock and
  * passed the budget alone, stopping one iteration before rank 0, which
@@ -280,6 +294,7 @@ int main(int argc, char **argv) {
       cmocka_unit_test(arguments_that_differ_are_refused),
       cmocka_unit_test(out_of_memory_on_one_rank_fails_every_rank),
       cmocka_unit_test(a_checkpoint_rank_0_cannot_write_fails_every_rank),
+      cmocka_unit_test(schedules_that_differ_are_refused_before_the_run),
       cmocka_unit_test(stops_are_taken_by_every_rank),
   };
   int failed = cmocka_run_group_tests_name("failures under MPI", tests, setup, teardown);
