@@ -102,11 +102,66 @@ static int rank0_status(int status) {
   return status;
 }
 
+/* The largest of every rank's status (0 where all succeeded). */
+static int world_max(int status) {
+#ifdef HETINV_RECONSTRUCT_MPI
+  int all = status;
+  MPI_Allreduce(&status, &all, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  status = all;
+#endif
+  return status;
+}
+
 /* After a step some ranks may have failed alone (rank 0's writes, a file
  * one node cannot read), before the next collective: every rank's status
  * becomes 1 if any rank's is (the failing one said why). */
 static int agreed(const hetinv_context_t *ctx, int status) {
   return hetinv_context_agree(ctx, status != 0 ? HETINV_ERROR_IO : HETINV_SUCCESS) != HETINV_SUCCESS;
+}
+
+/* The options that depend on what the scene says (usage errors, exit 2). */
+static int check_scene_options(const recon_scene_t *sc, bool bound_only, bool write_scene, bool fit,
+                               int64_t gradient_replicates) {
+  const bool files = sc->render_scene[0] != '\0';
+  if (write_scene && (files || bound_only)) {
+    return usage(files ? "--write-scene: the scene already reads measured files (acquisition.render_scene)"
+                       : "--write-scene and --bound-only exclude each other");
+  }
+  /* From files the bound takes the noise from the standard errors given,
+   * and is evaluated at the truth if one is named, else at the recovery. */
+  if (files && bound_only && !sc->has_truth) {
+    return usage("--bound-only: from measured files the bound is evaluated at the truth (truth.vol), or "
+                 "without one after the recovery, at it");
+  }
+  if (files && bound_only && sc->std_errors[0] == '\0') {
+    return usage("--bound-only: the bound needs the measurements' standard errors (acquisition.std_errors)");
+  }
+  if (fit && (bound_only || write_scene)) return usage("--fit-check needs a recovery: not with --bound-only or --write-scene");
+  if (fit && files && !sc->has_truth) {
+    return usage("--fit-check compares the recovery with the truth, and this scene names none (truth)");
+  }
+  if (fit && sc->gain_mode != HETINV_GAIN_NONE) {
+    return usage("--fit-check renders without sensor gains: not with acquisition gains estimated (gain_mode)");
+  }
+  if (gradient_replicates > 0 && (bound_only || write_scene)) {
+    return usage("--gradient-check needs a recovery: not with --bound-only or --write-scene");
+  }
+  if (gradient_replicates > 0 && files && !sc->has_truth) {
+    return usage("--gradient-check compares the recovery with the truth, and this scene names none (truth)");
+  }
+  if (gradient_replicates > 0 && sc->gain_mode != HETINV_GAIN_NONE) {
+    return usage("--gradient-check measures the data's Fisher information without sensor gains: not with "
+                 "acquisition gains estimated (gain_mode)");
+  }
+  /* Both run on one rank: refused here, on every rank alike, not after the
+   * work (--bound-only would otherwise exit 0 having written nothing). */
+  if ((bound_only || gradient_replicates > 0) && world_size() > 1) {
+    char what[160];
+    snprintf(what, sizeof what, "%s runs on one MPI rank (this run has %d)",
+             bound_only ? "--bound-only" : "--gradient-check", world_size());
+    return usage(what);
+  }
+  return 0;
 }
 
 static int run(int argc, char **argv, outdir_t *dir) {
@@ -170,51 +225,21 @@ static int run(int argc, char **argv, outdir_t *dir) {
   }
   if (bound_only && no_bound) return usage("--bound-only and --no-bound exclude each other");
   char msg[4096];
+  int early = 0;
   if (scene_path == NULL) {
     recon_scene_builtin(&sc);
   } else if (recon_scene_read(scene_path, &sc, msg, sizeof msg) < 0) {
     fprintf(recon_err(), "hetinv-reconstruct: %s\n", msg);
-    return 1;
+    early = 1;
   }
+  if (early == 0) early = check_scene_options(&sc, bound_only, write_scene, fit, gradient_replicates);
+  /* Under MPI every rank reads the scene itself: one that cannot (a file
+   * missing on its node) or reads another copy stops every rank here, which
+   * left the others waiting in the next collective, and its message is
+   * printed at the end (main). */
+  early = world_max(early);
+  if (early != 0) return early;
   const bool files = sc.render_scene[0] != '\0';
-  if (write_scene && (files || bound_only)) {
-    return usage(files ? "--write-scene: the scene already reads measured files (acquisition.render_scene)"
-                       : "--write-scene and --bound-only exclude each other");
-  }
-  /* From files the bound takes the noise from the standard errors given,
-   * and is evaluated at the truth if one is named, else at the recovery. */
-  if (files && bound_only && !sc.has_truth) {
-    return usage("--bound-only: from measured files the bound is evaluated at the truth (truth.vol), or "
-                 "without one after the recovery, at it");
-  }
-  if (files && bound_only && sc.std_errors[0] == '\0') {
-    return usage("--bound-only: the bound needs the measurements' standard errors (acquisition.std_errors)");
-  }
-  if (fit && (bound_only || write_scene)) return usage("--fit-check needs a recovery: not with --bound-only or --write-scene");
-  if (fit && files && !sc.has_truth) {
-    return usage("--fit-check compares the recovery with the truth, and this scene names none (truth)");
-  }
-  if (fit && sc.gain_mode != HETINV_GAIN_NONE) {
-    return usage("--fit-check renders without sensor gains: not with acquisition gains estimated (gain_mode)");
-  }
-  if (gradient_replicates > 0 && (bound_only || write_scene)) {
-    return usage("--gradient-check needs a recovery: not with --bound-only or --write-scene");
-  }
-  if (gradient_replicates > 0 && files && !sc.has_truth) {
-    return usage("--gradient-check compares the recovery with the truth, and this scene names none (truth)");
-  }
-  if (gradient_replicates > 0 && sc.gain_mode != HETINV_GAIN_NONE) {
-    return usage("--gradient-check measures the data's Fisher information without sensor gains: not with "
-                 "acquisition gains estimated (gain_mode)");
-  }
-  /* Both run on one rank: refused here, on every rank alike, not after the
-   * work (--bound-only would otherwise exit 0 having written nothing). */
-  if ((bound_only || gradient_replicates > 0) && world_size() > 1) {
-    char what[160];
-    snprintf(what, sizeof what, "%s runs on one MPI rank (this run has %d)",
-             bound_only ? "--bound-only" : "--gradient-check", world_size());
-    return usage(what);
-  }
   const bool no_std_errors = files && sc.std_errors[0] == '\0';
   if (no_std_errors) no_bound = true;
   if (out_dir) (void)recon_scene_set_output(&sc, "%s", out_dir); /* fits: recon_parse_folder */
