@@ -487,7 +487,19 @@ int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t
                     int32_t replicates, bool root, bool at_recovery, recon_bound_t *b) {
   memset(b, 0, sizeof *b);
   if (hetinv_context_rank_count(ctx) > 1) {
-    if (root) printf("%s: the bound is not computed with several MPI ranks\n", prog);
+    if (root) {
+      /* A serial run's bound files in the same folder would sit beside
+       * this run's recovery as if they were its own. */
+      char path[1200]; /* as recon_bound_write's: the output (1023 bytes) and a name */
+      snprintf(path, sizeof path, "%s/bound.exr", sc->output);
+      remove(path);
+      for (int p = 0; p < 3; ++p) {
+        snprintf(path, sizeof path, "%s/bound_%s.png", sc->output, hetinv_param_name(p));
+        remove(path);
+      }
+      fprintf(stderr, "%s: warning: the bound is not computed with several MPI ranks: no bound.exr, and "
+              "errors.csv without the bound's columns (run --bound-only on one rank for it)\n", prog);
+    }
     return 0;
   }
   if (recon_bound_compute(ctx, sc, truth, im, photons, replicates, b) != HETINV_SUCCESS) {
