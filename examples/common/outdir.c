@@ -132,7 +132,7 @@ int outdir_open(outdir_t *dir, const char *prog, const char *path) {
        * runs as one job over ranks, and only its rank 0 takes the folder). */
       const char *ranks = getenv("OMPI_COMM_WORLD_SIZE");
       if (ranks == NULL) ranks = getenv("PMI_SIZE");
-      const bool mpirun = ranks != NULL && atoi(ranks) > 1;
+      const bool mpirun = ranks != NULL && atoi(ranks) > 1 && strcmp(prog, "hetinv-reconstruct") != 0;
       fprintf(stderr,
               "%s: %s: the output folder is in use by another run%s; wait for it to end or "
               "choose another folder%s\n",

@@ -211,7 +211,7 @@ static int run(int argc, char **argv, outdir_t *dir) {
     } else if (strcmp(a, "--fit-replicates") == 0) {
       if (recon_parse_count("hetinv-reconstruct", a, i + 1 < argc ? argv[++i] : NULL, 2, 1000, &fit_replicates) < 0) return 2;
     } else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
-      print_usage(stdout, "recover sigma_a, sigma_s and g from boundary measurements");
+      if (world_rank() == 0) print_usage(stdout, "recover sigma_a, sigma_s and g from boundary measurements");
       return 0;
     } else if (a[0] == '-') {
       char msg[300];

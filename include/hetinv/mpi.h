@@ -40,7 +40,9 @@
  * one that initialised MPI; use MPI_THREAD_SERIALIZED if another thread
  * makes these calls. Initialise with
  * MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided). Destroy
- * every context before MPI_Finalize.
+ * every context before MPI_Finalize: a collective call on a context of
+ * several ranks still alive after it fails with HETINV_ERROR_INVALID_STATE
+ * (destroying it is still allowed).
  */
 #ifndef HETINV_MPI_H
 #define HETINV_MPI_H

@@ -177,10 +177,19 @@ static hetinv_result_t take_failure(const hetinv_context_t *ctx, hetinv_result_t
   return hv_fail_from_rank(ctx, code, first, __func__, "rank %d of %d: %s", first, ctx->rank_count, text);
 }
 
+/* A distributed context used after MPI_Finalize: MPI would abort the
+ * process; the header asks for contexts to be destroyed before it. */
+static hetinv_result_t finalised(const hetinv_context_t *ctx) {
+  return HV_FAIL(ctx, HETINV_ERROR_INVALID_STATE,
+                 "MPI was finalised while this context of %d ranks was alive; destroy contexts before "
+                 "MPI_Finalize", ctx->rank_count);
+}
+
 static hetinv_result_t agree(const hetinv_context_t *ctx, hetinv_result_t status, uint64_t key, const char *what,
                              bool carry) {
   int ranks = ctx->rank_count;
   if (ranks == 1) return status;
+  if (!mpi_usable()) return finalised(ctx);
   /* One reduction by maximum: ranks − (first failing rank), and the key
    * and its complement, whose maxima equal a rank's own only if every
    * rank's key is its own. */
@@ -208,6 +217,7 @@ hetinv_result_t hv_comm_agree_status(const hetinv_context_t *ctx, hetinv_result_
 
 hetinv_result_t hv_comm_or(const hetinv_context_t *ctx, uint32_t *flags) {
   if (ctx->rank_count == 1) return HETINV_SUCCESS;
+  if (!mpi_usable()) return finalised(ctx);
   uint32_t all = 0;
   int err = MPI_Allreduce(flags, &all, 1, MPI_UINT32_T, MPI_BOR, ctx->comm);
   if (err != MPI_SUCCESS) return mpi_fail(ctx, "MPI_Allreduce", err);

@@ -63,6 +63,18 @@ static void communicator_survives_caller_freeing_its_own(void **state) {
   hetinv_context_destroy(&ctx);
 }
 
+/* A context of several ranks still alive at MPI_Finalize (the header asks
+ * for contexts to be destroyed first): its next collective aborted the
+ * process inside MPI; now it fails with a message, and it can be destroyed. */
+static hetinv_context_t *alive_at_finalize;
+
+static void a_context_alive_at_finalize_fails_its_collectives(void **state) {
+  (void)state;
+  assert_result(HETINV_ERROR_INVALID_STATE, hetinv_context_agree(alive_at_finalize, HETINV_SUCCESS));
+  assert_message_contains("MPI was finalised while this context of 2 ranks was alive");
+  hetinv_context_destroy(&alive_at_finalize);
+}
+
 int main(int argc, char **argv) {
   const struct CMUnitTest before[] = {
       cmocka_unit_test(set_comm_before_mpi_init_is_invalid_state),
@@ -76,8 +88,16 @@ int main(int argc, char **argv) {
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
   failed += cmocka_run_group_tests_name("with MPI", during, NULL, NULL);
-  int any = 0;
+  int any = 0, ranks = 0;
   MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  if (ranks == 2 && hetinv_context_create(NULL, &alive_at_finalize) != HETINV_SUCCESS) any = 1;
   MPI_Finalize();
+  if (alive_at_finalize != NULL) {
+    const struct CMUnitTest after[] = {
+        cmocka_unit_test(a_context_alive_at_finalize_fails_its_collectives),
+    };
+    any += cmocka_run_group_tests_name("after MPI_Finalize", after, NULL, NULL);
+  }
   return any != 0;
 }
