@@ -30,7 +30,9 @@
  * rank it arose on, so a program prints it once. A rank that does
  * not make the call at all still leaves the others waiting: a program's
  * own steps that one rank takes alone (writing a file) are followed by
- * hetinv_context_agree(). hetinv_optimizer_run() is collective too: its
+ * hetinv_context_agree(). hetinv_optimizer_run() is collective too: it
+ * starts only if every rank's optimizer has the same tunables, stages and
+ * progress (else HETINV_ERROR_INVALID_ARGUMENT on every rank), and its
  * checkpoint (written by rank 0), its time budget (by each rank's clock)
  * and its progress callback's stop are decided for all ranks at once.
  *
