@@ -386,6 +386,17 @@ void recon_bound_print(const recon_bound_t *b, FILE *f) {
   }
 }
 
+/* The bound's files in the output folder: bound.exr (param < 0) or the
+ * parameter's PNG preview. Named here only, for the writer and for the
+ * removal of a stale set (recon_bound_run under MPI). */
+static void bound_file(char *path, size_t size, const recon_scene_t *sc, int param) {
+  if (param < 0) {
+    snprintf(path, size, "%s/bound.exr", sc->output);
+  } else {
+    snprintf(path, size, "%s/bound_%s.png", sc->output, hetinv_param_name((hetinv_param_t)param));
+  }
+}
+
 /* Value of a per-voxel array at section pixel (x, z): the middle y slice. */
 static double section(const double *a, const int32_t d[3], int32_t x, int32_t z) {
   return a[((size_t)z * (size_t)d[1] + (size_t)(d[1] / 2)) * (size_t)d[0] + (size_t)x];
@@ -430,7 +441,7 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
                                           "bound at each radius computed (bound_local_r<N>); x-z section at "
                                           "the middle of y; row = z");
   }
-  snprintf(path, sizeof path, "%s/bound.exr", sc->output);
+  bound_file(path, sizeof path, sc, -1);
   if (r == HETINV_SUCCESS) r = hetinv_image_write_exr(img, path);
   hetinv_image_destroy(&img);
   /* PNG previews, z up, on a common scale per parameter from 0 to the
@@ -450,7 +461,7 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
         px[(size_t)y * (size_t)(d[0] * s) + (size_t)x] = (float)(isnan(v) ? 0.0 : fmin(v, hi));
       }
     }
-    snprintf(path, sizeof path, "%s/bound_%s.png", sc->output, hetinv_param_name(p));
+    bound_file(path, sizeof path, sc, p);
     r = hetinv_image_write_png(img, 0, path, 0.0, hi, HETINV_COLORMAP_VIRIDIS);
     hetinv_image_destroy(&img);
   }
@@ -491,10 +502,8 @@ int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t
       /* A serial run's bound files in the same folder would sit beside
        * this run's recovery as if they were its own. */
       char path[1200]; /* as recon_bound_write's: the output (1023 bytes) and a name */
-      snprintf(path, sizeof path, "%s/bound.exr", sc->output);
-      remove(path);
-      for (int p = 0; p < 3; ++p) {
-        snprintf(path, sizeof path, "%s/bound_%s.png", sc->output, hetinv_param_name(p));
+      for (int p = -1; p < 3; ++p) {
+        bound_file(path, sizeof path, sc, p);
         remove(path);
       }
       fprintf(stderr, "%s: warning: the bound is not computed with several MPI ranks: no bound.exr, and "

@@ -252,7 +252,7 @@ static void scene_relative(const scene_t *sc, const char *path, char *out, size_
 /* Without a scene "box" the first file's box is the medium's; the other
  * files must have it too, else one of them was written in another unit or
  * at another origin and would be read onto the wrong voxels' places. */
-static int check_vol_boxes(hetinv_context_t *ctx, jr_t *jr, const char files[][4400], const int *is_file, int first,
+static int check_vol_boxes(hetinv_context_t *ctx, jr_t *jr, char (*files)[4400], const int *is_file, int first,
                            const hetinv_vol_header_t *head) {
   for (int p = first + 1; p < HETINV_PARAM_COUNT; ++p) {
     if (!is_file[p]) continue;
@@ -320,7 +320,7 @@ static int build_vol(scene_t *sc, hetinv_context_t *ctx, jr_t *jr, const cJSON *
   int has_box = read_box(sc, jr, JR_OPTIONAL);
   if (has_box < 0) return -1;
   if (!has_box) {
-    if (check_vol_boxes(ctx, jr, (const char(*)[4400])files, is_file, first, &header) < 0) return -1;
+    if (check_vol_boxes(ctx, jr, files, is_file, first, &header) < 0) return -1;
     memcpy(sc->box_min, header.box_min, sizeof sc->box_min);
     memcpy(sc->box_max, header.box_max, sizeof sc->box_max);
   }
