@@ -81,6 +81,19 @@ def _check_shape(values, shape, name):
                          % (name, tuple(values.shape), tuple(shape)))
 
 
+def _refuse_unreadable(values, name, expected="numbers"):
+    """A numpy array whose values would be guessed at, refused: a masked
+    array's mask would be dropped, strings parsed as numbers, complex
+    values cut to their real part."""
+    if isinstance(values, _np.ma.MaskedArray):
+        raise TypeError("%s: a masked array; its mask would be ignored: pass a.filled(value) or "
+                        "a.compressed()" % name)
+    if values.dtype.kind == "c":
+        raise TypeError("%s: complex values (dtype %s); expected real numbers" % (name, values.dtype))
+    if values.dtype.kind not in "biuf":
+        raise TypeError("%s: values of dtype %s; expected %s" % (name, values.dtype, expected))
+
+
 def to_c(values, typecode="d", count=None, name="values", shape=None):
     """C array of `typecode` items from `values` (None gives a NULL pointer).
     `count`, when given, is the number of items required: give it whenever
@@ -91,19 +104,11 @@ def to_c(values, typecode="d", count=None, name="values", shape=None):
     if values is None:
         return CArray(None, 0, None)
     if _np is not None and isinstance(values, _np.ndarray):
-        # Refused where numpy would only warn or guess: complex values lose
-        # their imaginary part; a masked array's mask would be dropped;
-        # strings would be parsed as numbers; a float64 past float32's range
-        # would become inf.
-        if isinstance(values, _np.ma.MaskedArray):
-            raise TypeError("%s: a masked array; its mask would be ignored: pass a.filled(value) or "
-                            "a.compressed()" % name)
-        if values.dtype.kind == "c":
-            raise TypeError("%s: complex values (dtype %s); expected real numbers" % (name, values.dtype))
-        if values.dtype.kind == "O":  # numbers as Python objects: through doubles, range checked
-            values = values.astype(_np.float64)
-        if values.dtype.kind not in "biuf":
-            raise TypeError("%s: values of dtype %s; expected numbers" % (name, values.dtype))
+        # Refused where numpy would only warn or guess (_refuse_unreadable),
+        # or where a float64 past float32's range would become inf.
+        if values.dtype.kind == "O" and not isinstance(values, _np.ma.MaskedArray):
+            values = values.astype(_np.float64)  # numbers as Python objects: through doubles, range checked
+        _refuse_unreadable(values, name)
         _check_shape(values, shape, name)
         if typecode == "f" and values.dtype.kind == "f" and values.size:
             finite = values[_np.isfinite(values)]
@@ -149,10 +154,7 @@ def flags(mask, count=None, name="mask"):
     if mask is None:
         return to_c(None)
     if _np is not None and isinstance(mask, _np.ndarray):
-        if isinstance(mask, _np.ma.MaskedArray):
-            raise TypeError("%s: a masked array; its mask would be ignored: pass a.filled(value)" % name)
-        if mask.dtype.kind not in "biuf":
-            raise TypeError("%s: values of dtype %s; expected numbers or booleans" % (name, mask.dtype))
+        _refuse_unreadable(mask, name, "numbers or booleans")
         mask = (mask != 0).astype("uint8")
     elif not isinstance(mask, (bytes, bytearray)):
         items = list(mask)
