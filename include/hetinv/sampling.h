@@ -14,6 +14,8 @@
  * Units of the values rendered (per unit emitted power):
  * - hemispherical detector: the fraction of the emitted power that leaves
  *   through its region, e.g. diffuse reflectance Rd or transmittance Tt;
+ * - fiber probe: the fraction of the emitted power that leaves through its
+ *   disk within its numerical aperture;
  * - orthographic pixel: outgoing radiance in the sensor's direction
  *   averaged over the pixel's area on the face (power per area per
  *   steradian);
@@ -215,12 +217,41 @@ HETINV_API hetinv_result_t hetinv_sensor_create_hemispherical(const hetinv_mediu
                                                               const double rect_max[2],
                                                               hetinv_sensor_t **out);
 
+/**
+ * @brief Fiber probe: the power leaving the box through a disk on a face
+ *        within a numerical aperture, unscattered light included. One value.
+ *
+ * Light leaving through the disk at face coordinates within @p radius of
+ * @p centre counts if its direction outside the medium makes an angle θ
+ * with the face's outward normal such that η_out·sin θ ≤ NA, η_out being
+ * the medium's outside index (hetinv_medium_set_ior()). An NA of at least
+ * η_out accepts every direction: the fiber is then a hemispherical
+ * detector over the disk. The disk may extend beyond the face; only light
+ * leaving the face counts. The fiber is ideal: it does not reflect or
+ * block light, and its own core index plays no part (NA is the fiber's,
+ * as a datasheet gives it: n·sin θ_max in any medium).
+ * @param medium gives the box and refractive indices; only read.
+ * @param face the face the fiber's end lies on.
+ * @param centre face coordinates (u, v) of the disk's centre, on the face
+ *        (within its closed extent). Read during the call.
+ * @param radius the disk's radius (the core's), finite and > 0.
+ * @param numerical_aperture NA, finite and > 0.
+ * @param[out] out receives the sensor; NULL on failure.
+ * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
+ *         (face); HETINV_ERROR_INVALID_ARGUMENT (a centre off the face, a
+ *         radius or NA that is not finite and > 0); HETINV_ERROR_OUT_OF_MEMORY.
+ *         Thread-safe.
+ */
+HETINV_API hetinv_result_t hetinv_sensor_create_fiber(const hetinv_medium_t *medium, hetinv_face_t face,
+                                                      const double centre[2], double radius,
+                                                      double numerical_aperture, hetinv_sensor_t **out);
+
 /** @brief Number of values (pixels) of a sensor; 0 for NULL. */
 HETINV_API int32_t hetinv_sensor_pixel_count(const hetinv_sensor_t *sensor);
 
 /**
  * @brief Width and height of a sensor's pixel grid (1 × 1 for a
- *        hemispherical detector). Either output may be NULL.
+ *        hemispherical detector or a fiber probe). Either output may be NULL.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT if @p sensor is NULL.
  */
 HETINV_API hetinv_result_t hetinv_sensor_get_size(const hetinv_sensor_t *sensor, int32_t *width,

@@ -247,6 +247,8 @@ static void test_context_medium_and_sampling(fixture_t *f) {
   /* new_sensor's face check */
   EXPECT_FAIL(hetinv_sensor_create_hemispherical,
               (f->medium, (hetinv_face_t)9, (double[]){0, 0}, (double[]){1, 1}, &s));
+  /* the centre check, after the sensor is allocated (and freed again) */
+  EXPECT_FAIL(hetinv_sensor_create_fiber, (f->medium, HETINV_FACE_Z_MAX, (double[]){0.5, 7.0}, 0.1, 0.22, &s));
   int32_t w, h;
   EXPECT_FAIL(hetinv_sensor_get_size, (NULL, &w, &h));
   hetinv_pathlength_t *p = NULL;

@@ -107,6 +107,7 @@ PROTOTYPES = {
     "hetinv_sensor_create_orthographic": (_R, [_vp, _i32, c_double_p, c_double_p, c_double_p,
                                                _i32, _i32, c_void_pp]),
     "hetinv_sensor_create_hemispherical": (_R, [_vp, _i32, c_double_p, c_double_p, c_void_pp]),
+    "hetinv_sensor_create_fiber": (_R, [_vp, _i32, c_double_p, _d, _d, c_void_pp]),
     "hetinv_sensor_pixel_count": (_i32, [_vp]),
     "hetinv_sensor_get_size": (_R, [_vp, c_int32_p, c_int32_p]),
     "hetinv_sensor_destroy": (None, [c_void_pp]),

@@ -128,7 +128,7 @@ def _flat(vectors, name):
 
 
 class Sensor(Handle):
-    """hetinv_sensor_t. Make one with Sensor.orthographic or Sensor.hemispherical."""
+    """hetinv_sensor_t. Make one with Sensor.orthographic, Sensor.hemispherical or Sensor.fiber."""
 
     _destroy_name = "sensor_destroy"
 
@@ -152,13 +152,23 @@ class Sensor(Handle):
                                               ctypes.byref(h)))
         return _from_medium(cls, h, medium)
 
+    @classmethod
+    def fiber(cls, medium, face, centre, radius, numerical_aperture):
+        """A fiber probe: power leaving through a disk of `radius` centred at face
+        coordinates `centre`, within `numerical_aperture` (n_out·sin θ ≤ NA)."""
+        h = ctypes.c_void_p()
+        check(lib.sensor_create_fiber(_medium(medium), face_id(face), _arrays.fixed(centre, 2, "d", "centre"),
+                                      number(radius, "radius"), number(numerical_aperture, "numerical_aperture"),
+                                      ctypes.byref(h)))
+        return _from_medium(cls, h, medium)
+
     @property
     def pixel_count(self):
         return lib.sensor_pixel_count(self._ptr)
 
     @property
     def size(self):
-        """(width, height); (1, 1) for a hemispherical detector."""
+        """(width, height); (1, 1) for a hemispherical detector or a fiber."""
         w, h = ctypes.c_int32(), ctypes.c_int32()
         check(lib.sensor_get_size(self._ptr, ctypes.byref(w), ctypes.byref(h)))
         return w.value, h.value
