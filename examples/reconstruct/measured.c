@@ -137,9 +137,10 @@ static int check_rows(const scene_t *scene, char *msg, size_t msg_size) {
   for (int i = 0; i < scene->row_count; ++i) {
     const scene_sensor_t *s = &scene->sensors[scene->rows[i].sensor];
     if (s->kind != SENSOR_ORTHOGRAPHIC) {
-      snprintf(msg, msg_size, "%s: measurement row %d \"%s\": sensor \"%s\" is hemispherical; "
+      snprintf(msg, msg_size, "%s: measurement row %d \"%s\": sensor \"%s\" is %s; "
                "hetinv-render writes no file for it, so a reconstruction from files reads "
-               "orthographic sensors only", scene->path, i, scene->rows[i].name, s->name);
+               "orthographic sensors only", scene->path, i, scene->rows[i].name, s->name,
+               scene_sensor_type(s->kind));
       return -1;
     }
   }

@@ -15,7 +15,7 @@ typedef enum { STACK_VALUES = 0, STACK_STD_ERRORS = 1, STACK_BALLISTIC = 2 } sta
 typedef struct row_totals {
   size_t offset;
   int32_t pixels, bins;
-  double area;              /* pixel area (1 for a hemispherical detector) */
+  double area;              /* pixel area (1 for a hemispherical detector or a fiber) */
   double value, std_error, ballistic; /* over all bins */
   int std_error_exact;      /* 0: std_error is an upper bound */
   double *bin_value, *bin_std_error, *bin_ballistic;
@@ -308,7 +308,7 @@ void output_print_summary(const scene_t *sc, const render_result_t *res, FILE *l
     const scene_sensor_t *s = &sc->sensors[rw->sensor];
     row_totals_t t;
     if (row_totals(sc, res, row, &t) < 0) continue;
-    if (s->kind == SENSOR_HEMISPHERICAL) {
+    if (s->kind != SENSOR_ORTHOGRAPHIC) { /* hemispherical, fiber: power */
       fprintf(log, "%s: %s <- %s: %.6g %s %.2g of the emitted power (unscattered %.6g)%s\n",
               rw->name, s->name, sc->emitters[rw->emitter].name, t.value,
               t.std_error_exact ? "+-" : "+- at most", t.std_error, t.ballistic,
@@ -364,15 +364,15 @@ int output_print_totals_json(const scene_t *sc, const render_result_t *res, FILE
     }
     cJSON *o = cJSON_CreateObject();
     ok = o != NULL && cJSON_AddItemToArray(rows, o);
-    int hemi = s->kind == SENSOR_HEMISPHERICAL;
+    int power = s->kind != SENSOR_ORTHOGRAPHIC; /* hemispherical, fiber */
     ok = ok && cJSON_AddStringToObject(o, "name", rw->name) &&
          cJSON_AddStringToObject(o, "emitter", sc->emitters[rw->emitter].name) &&
          cJSON_AddStringToObject(o, "sensor", s->name) &&
-         cJSON_AddStringToObject(o, "sensor_type", hemi ? "hemispherical" : "orthographic") &&
+         cJSON_AddStringToObject(o, "sensor_type", scene_sensor_type(s->kind)) &&
          cJSON_AddStringToObject(o, "pathlength", sc->pathlengths[rw->pathlength].name) &&
          cJSON_AddNumberToObject(o, "bins", t.bins) &&
          cJSON_AddStringToObject(o, "quantity",
-                                 hemi ? "fraction of the emitted power"
+                                 power ? "fraction of the emitted power"
                                       : "radiance integrated over the sensor area, per sr, "
                                         "per unit emitted power") &&
          cJSON_AddNumberToObject(o, "value", t.value) &&

@@ -24,7 +24,10 @@
 /** Longest emitter, sensor or pathlength name, terminator included. */
 #define SCENE_NAME_MAX 64
 
-typedef enum { SENSOR_ORTHOGRAPHIC = 0, SENSOR_HEMISPHERICAL = 1 } scene_sensor_kind_t;
+typedef enum { SENSOR_ORTHOGRAPHIC = 0, SENSOR_HEMISPHERICAL = 1, SENSOR_FIBER = 2 } scene_sensor_kind_t;
+
+/** The scene's "type" of a sensor kind ("orthographic", "hemispherical", "fiber"). */
+const char *scene_sensor_type(scene_sensor_kind_t kind);
 
 typedef struct scene_emitter {
   char name[SCENE_NAME_MAX];
@@ -39,9 +42,10 @@ typedef struct scene_sensor {
   hetinv_face_t face;
   double direction[3];             /* orthographic: direction of the light it sees */
   double origin[2], pixel_size[2]; /* orthographic: pixel (0, 0)'s corner; pixel extent */
-  int32_t width, height;           /* orthographic: pixels; hemispherical: 1 × 1 */
+  int32_t width, height;           /* orthographic: pixels; hemispherical and fiber: 1 × 1 */
   int has_rect;                    /* hemispherical: 0 for the whole face */
   double rect_min[2], rect_max[2];
+  double centre[2], radius, numerical_aperture; /* fiber: its disk on the face and NA */
   const cJSON *json;
   hetinv_sensor_t *handle;
 } scene_sensor_t;

@@ -314,19 +314,25 @@ static int orthographic_grid(scene_t *sc, jr_t *jr, const cJSON *item, const cha
   return 0;
 }
 
+/* The "type" of each kind, in the order of scene_sensor_kind_t. */
+static const char *const sensor_types[] = {"orthographic", "hemispherical", "fiber", NULL};
+
+const char *scene_sensor_type(scene_sensor_kind_t kind) { return sensor_types[kind]; }
+
 static int build_sensor(scene_t *sc, jr_t *jr, const cJSON *item, const char *at,
                         scene_sensor_t *s) {
-  static const char *const types[] = {"orthographic", "hemispherical", NULL};
   static const char *const ortho_keys[] = {"name", "type", "face", "direction", "origin",
                                            "pixel_size", "width", "height", NULL};
   static const char *const hemi_keys[] = {"name", "type", "face", "rect", NULL};
+  static const char *const fiber_keys[] = {"name", "type", "face", "centre", "radius", "numerical_aperture", NULL};
+  static const char *const *const keys[] = {ortho_keys, hemi_keys, fiber_keys};
   char buf[96];
   if (!cJSON_IsObject(item)) {
     return jr_fail(jr, at, "expected an object, found %s", jr_describe(item, buf, sizeof buf));
   }
   int type = 0, face = 0;
-  if (jr_choice(jr, item, at, "type", JR_REQUIRED, types, &type) < 0 ||
-      jr_check_object(jr, item, at, type == 0 ? ortho_keys : hemi_keys) < 0 ||
+  if (jr_choice(jr, item, at, "type", JR_REQUIRED, sensor_types, &type) < 0 ||
+      jr_check_object(jr, item, at, keys[type]) < 0 ||
       read_name(jr, item, at, "sensor", (int)(s - sc->sensors), sc->sensors, sizeof *s, s->name) < 0 ||
       jr_choice(jr, item, at, "face", JR_REQUIRED, face_names, &face) < 0) {
     return -1;
@@ -344,6 +350,15 @@ static int build_sensor(scene_t *sc, jr_t *jr, const cJSON *item, const char *at
     }
     r = hetinv_sensor_create_orthographic(sc->medium, face, s->direction, s->origin,
                                           s->pixel_size, s->width, s->height, &s->handle);
+  } else if (s->kind == SENSOR_FIBER) {
+    s->width = s->height = 1;
+    /* Every field required: a default centre, core or NA would hide a typo. */
+    if (jr_numbers(jr, item, at, "centre", JR_REQUIRED, 2, s->centre) < 0 ||
+        jr_positive(jr, item, at, "radius", JR_REQUIRED, &s->radius) < 0 ||
+        jr_positive(jr, item, at, "numerical_aperture", JR_REQUIRED, &s->numerical_aperture) < 0) {
+      return -1;
+    }
+    r = hetinv_sensor_create_fiber(sc->medium, face, s->centre, s->radius, s->numerical_aperture, &s->handle);
   } else {
     s->width = s->height = 1;
     s->has_rect = read_rect(jr, item, at, s->rect_min, s->rect_max);

@@ -6,7 +6,10 @@
  * hv_sensor_kind_t in its file of lib/sensors/ and sets it on the sensors
  * it creates (hv_sensor_new); transport never names a kind. Adding a kind
  * is that one file and its create function's prototype in
- * hetinv/sampling.h (lib/CMakeLists.txt builds every file of lib/sensors/). */
+ * hetinv/sampling.h (lib/CMakeLists.txt builds every file of lib/sensors/);
+ * the test suite then wants the new public function in the error
+ * attribution table (tests/unit/core_error_attribution.c) and in the
+ * Python binding's prototypes (bindings/python/hetinv/_lib.py). */
 #ifndef HV_SENSOR_KIND_H
 #define HV_SENSOR_KIND_H
 

@@ -253,6 +253,28 @@ class Objects(unittest.TestCase):
             hetinv.vol_write(self.ctx, other, [1.5, 2.5], (2, 1, 1), box_max=(2, 1, 1))
             self.assertEqual(list(hetinv.vol_read(self.ctx, other)[1]), [1.5, 2.5])
 
+    def test_fiber_probe(self):
+        m = scene.truth_medium(self.ctx)
+        # Over the whole y_min face (4 x 1 around (2, 0.5)) with NA = n_out it
+        # is that face's hemispherical detector, on the same photons.
+        fiber = hetinv.Sensor.fiber(m, "y_min", (2, 0.5), 2.5, 1.0)
+        self.assertEqual((fiber.pixel_count, fiber.size), (1, (1, 1)))
+        hemi = hetinv.Sensor.hemispherical(m, "y_min")
+        beam = hetinv.Emitter.ideal(m, (1, 4.5, 0.5), (0, -1, 0))
+        values = []
+        for s in (fiber, hemi):
+            ms = hetinv.Measurements(self.ctx)
+            ms.add(beam, s)
+            values.append(list(hetinv.Estimator(self.ctx, photons=500).render(m, ms).values))
+        self.assertEqual(values[0], values[1])
+        self.assertGreater(values[0][0], 0.0)
+        with self.assertRaisesRegex(hetinv.InvalidArgumentError, "numerical_aperture is 0"):
+            hetinv.Sensor.fiber(m, "y_min", (2, 0.5), 0.1, 0.0)
+        with self.assertRaisesRegex(hetinv.InvalidArgumentError, "centre\\[0\\] \\(x\\) is 5"):
+            hetinv.Sensor.fiber(m, "y_min", (5, 0.5), 0.1, 0.22)
+        with self.assertRaisesRegex(TypeError, "radius"):
+            hetinv.Sensor.fiber(m, "y_min", (2, 0.5), "wide", 0.22)
+
     def test_sampling_functions_and_layout(self):
         m = scene.truth_medium(self.ctx)
         area = hetinv.Emitter.area(m, "y_max", (0, -1, 0), (0, 0), (4, 1),
