@@ -28,7 +28,7 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "validation.h"
+#include "test_gradient_common.h"
 
 /* 12 fiber values (6 per interface) + 2 gradients. */
 #define COMPARISONS 14
@@ -234,11 +234,132 @@ static void fibers_under_water_match_the_closed_form(void **state) {
   val_assert_all_passed(check_fibers("FB2", &s, fibers, gradients));
 }
 
+/* In a scattering medium there is no closed form: the gradient pass against
+ * central finite differences with common random numbers, as
+ * test_gradient_fd.c does for the other kinds (its scene: 3 × 3 × 3 voxels of
+ * 0.5 mm, σa 0.2–1, σs 1–5 /mm, g 0.1–0.6, η = 1.3 in air, a beam into the top
+ * face's centre; its steps, 10 % of σ and 0.05 for g, and its threshold, the
+ * Student-t Bonferroni bound with Welch's degrees of freedom). Two fibers:
+ * one on the top face beside the beam (reflectance), one under it
+ * (transmittance), NA 0.5 and 0.39. A set of exit sensors only takes the
+ * SIMD photon loop with delta-tracked flights split into voxels when a path
+ * scores; the finite differences render the same set. */
+#define FD_COMPARISONS 24
+#define FD_STREAMS 64
+#define FD_PHOTONS 4.8e5 /* per side of each difference, all streams together */
+#define FD_GRAD_PHOTONS 4e5
+#define FD_GRAD_STREAM 1000 /* independent of the differences' streams 0..63 */
+
+static void gradient_in_a_scattering_medium_matches_crn_finite_differences(void **state) {
+  (void)state;
+  enum { VALUES = 2, NVOX = 4 };
+  static const int32_t voxel[NVOX][3] = {{1, 1, 1}, {1, 1, 2}, {2, 1, 2}, {1, 1, 0}};
+  static const char *const value_name[VALUES] = {"top_fiber", "bottom_fiber"};
+  hetinv_context_t *ctx = val_context(seed, 1);
+  hetinv_medium_t *m = NULL;
+  assert_ok(hetinv_medium_create(ctx, (double[]){0, 0, 0}, (double[]){1.5, 1.5, 1.5}, (int32_t[]){3, 3, 3}, &m));
+  assert_ok(hetinv_medium_set_ior(m, 1.3, 1.0));
+  uint64_t table = 0x3a3a3; /* test_gradient_fd.c's medium */
+  for (int32_t z = 0; z < 3; ++z) {
+    for (int32_t y = 0; y < 3; ++y) {
+      for (int32_t x = 0; x < 3; ++x) {
+        double sa = 0.2 + 0.8 * grad_uniform(&table), ss = 1.0 + 4.0 * grad_uniform(&table);
+        double g = 0.1 + 0.5 * grad_uniform(&table);
+        assert_ok(hetinv_medium_set_voxel(m, x, y, z, sa, ss, g));
+      }
+    }
+  }
+  assert_ok(hetinv_medium_commit(m));
+  hetinv_emitter_t *beam = NULL;
+  assert_ok(hetinv_emitter_create_ideal(m, (double[]){0.75, 0.75, 2.5}, (double[]){0, 0, -1}, &beam));
+  hetinv_sensor_t *top = NULL, *bottom = NULL;
+  assert_ok(hetinv_sensor_create_fiber(m, HETINV_FACE_Z_MAX, (double[]){1.1, 0.75}, 0.3, 0.5, &top));
+  assert_ok(hetinv_sensor_create_fiber(m, HETINV_FACE_Z_MIN, (double[]){0.75, 0.75}, 0.5, 0.39, &bottom));
+  hetinv_pathlength_t *steady = NULL;
+  assert_ok(hetinv_pathlength_create_steady(ctx, &steady));
+  hetinv_measurements_t *set = NULL;
+  assert_ok(hetinv_measurements_create(ctx, &set));
+  assert_ok(hetinv_measurements_add(set, beam, top, steady, NULL));
+  assert_ok(hetinv_measurements_add(set, beam, bottom, steady, NULL));
+  double t0 = grad_now();
+
+  hetinv_estimator_t *fd_est = NULL;
+  assert_ok(hetinv_estimator_create(ctx, &fd_est));
+  double per_stream = floor(FD_PHOTONS * (double)HETINV_VALIDATION_SCALE / FD_STREAMS + 0.5);
+  if (per_stream < 64) per_stream = 64;
+  assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_PHOTONS, per_stream));
+  assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_BATCHES, 2));
+  double fd_mean[NVOX][3][VALUES], fd_se[NVOX][3][VALUES], h_used[NVOX][3];
+  for (int v = 0; v < NVOX; ++v) {
+    double base[3];
+    assert_ok(hetinv_medium_get_voxel(m, voxel[v][0], voxel[v][1], voxel[v][2], &base[0], &base[1], &base[2]));
+    for (hetinv_param_t p = 0; p < HETINV_PARAM_COUNT; ++p) {
+      double h = p == HETINV_PARAM_G ? 0.05 : 0.1 * base[p];
+      h_used[v][p] = h;
+      hetinv_medium_t *plus = grad_perturbed(m, voxel[v], p, base[p] + h);
+      hetinv_medium_t *minus = grad_perturbed(m, voxel[v], p, base[p] - h);
+      double d[VALUES][FD_STREAMS];
+      for (int j = 0; j < FD_STREAMS; ++j) {
+        double ip[VALUES], im[VALUES];
+        assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_STREAM, j));
+        assert_ok(hetinv_estimator_render(fd_est, plus, set, ip, NULL, NULL, VALUES));
+        assert_ok(hetinv_estimator_render(fd_est, minus, set, im, NULL, NULL, VALUES));
+        for (int n = 0; n < VALUES; ++n) d[n][j] = (ip[n] - im[n]) / (2.0 * h);
+      }
+      for (int n = 0; n < VALUES; ++n) grad_mean_se(d[n], FD_STREAMS, &fd_mean[v][p][n], &fd_se[v][p][n]);
+      hetinv_medium_destroy(&plus);
+      hetinv_medium_destroy(&minus);
+    }
+  }
+  hetinv_estimator_destroy(&fd_est);
+  double t1 = grad_now();
+
+  hetinv_param_map_t *map = NULL;
+  assert_ok(hetinv_param_map_create_identity(m, HETINV_FREE_ALL, &map));
+  hetinv_estimator_t *est = val_estimator(ctx, FD_GRAD_PHOTONS);
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_STREAM, FD_GRAD_STREAM));
+  double grad[VALUES][81], grad_se[VALUES][81], value[VALUES], value_se[VALUES];
+  assert_ok(hetinv_estimator_render(est, m, set, value, value_se, NULL, VALUES));
+  for (int n = 0; n < VALUES; ++n) {
+    double cot[VALUES] = {0};
+    cot[n] = 1.0;
+    assert_ok(hetinv_estimator_gradient(est, m, set, cot, VALUES, map, grad[n], grad_se[n], 81));
+    val_note("FB3", value_name[n], value[n], value_se[n]);
+  }
+  printf("finite differences: %d x 2 renders of %.0f photons x %d streams in %.1f s; gradients in %.1f s\n",
+         NVOX * 3, per_stream, FD_STREAMS, t1 - t0, grad_now() - t1);
+  int failures = 0;
+  for (int v = 0; v < NVOX; ++v) {
+    size_t k = (size_t)voxel[v][0] + 3 * ((size_t)voxel[v][1] + 3 * (size_t)voxel[v][2]);
+    for (hetinv_param_t p = 0; p < HETINV_PARAM_COUNT; ++p) {
+      for (int n = 0; n < VALUES; ++n) {
+        char name[96];
+        snprintf(name, sizeof name, "FB3/%s/%s/(%d,%d,%d)/h=%.4g", value_name[n], hetinv_param_name(p),
+                 (int)voxel[v][0], (int)voxel[v][1], (int)voxel[v][2], h_used[v][p]);
+        failures += !grad_compare(name, fd_mean[v][p][n], fd_se[v][p][n], FD_STREAMS - 1.0,
+                                  grad[n][(size_t)p * 27 + k], grad_se[n][(size_t)p * 27 + k], GRAD_BATCH_DOF,
+                                  FD_COMPARISONS, seed);
+      }
+    }
+  }
+  hetinv_estimator_destroy(&est);
+  hetinv_param_map_destroy(&map);
+  hetinv_measurements_destroy(&set);
+  hetinv_pathlength_destroy(&steady);
+  hetinv_sensor_destroy(&top);
+  hetinv_sensor_destroy(&bottom);
+  hetinv_emitter_destroy(&beam);
+  hetinv_medium_destroy(&m);
+  hetinv_context_destroy(&ctx);
+  val_assert_all_passed(failures);
+}
+
 int main(void) {
   seed = val_seed(SEED);
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(fibers_under_air_match_the_closed_form),
       cmocka_unit_test(fibers_under_water_match_the_closed_form),
+      cmocka_unit_test(gradient_in_a_scattering_medium_matches_crn_finite_differences),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
