@@ -1,9 +1,11 @@
 #!/bin/sh
 # Builds libhetinv without sanitizers, installs it into a temporary prefix,
 # then builds and runs tests/install/consumer.c twice: with pkg-config and
-# with find_package(hetinv). Further arguments go to the library's cmake
-# configuration; with -DHETINV_WITH_MPI=ON it also builds and runs
-# consumer_mpi.c (hetinv/mpi.h) both ways.
+# with find_package(hetinv), and with a C++ compiler consumer.cpp both ways
+# too; every installed header compiles alone in C and C++. Further
+# arguments go to the library's cmake configuration; with
+# -DHETINV_WITH_MPI=ON it also builds and runs consumer_mpi.c (hetinv/mpi.h)
+# both ways.
 #   usage: run.sh <source dir> <scratch dir> [cmake options...]
 set -eu
 src=$1
@@ -27,10 +29,37 @@ cc -std=c11 -Wall -Werror -o "$work/consumer-pkgconfig" "$src/tests/install/cons
   $(pkg-config --cflags --libs hetinv)
 LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer-pkgconfig"
 
+if command -v c++ >/dev/null 2>&1; then
+  echo "== pkg-config, C++"
+  for std in c++17 c++20; do
+    # shellcheck disable=SC2046 # word splitting of the flags is intended
+    c++ -std=$std -Wall -Wextra -Wpedantic -Werror -o "$work/consumer-cxx-pkgconfig" \
+      "$src/tests/install/consumer.cpp" $(pkg-config --cflags --libs hetinv)
+    LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer-cxx-pkgconfig"
+  done
+fi
+
 echo "== find_package"
 cmake -S "$src/tests/install" -B "$work/consumer" -DCMAKE_PREFIX_PATH="$prefix" >"$work/consumer.log"
 cmake --build "$work/consumer" >>"$work/consumer.log"
 LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer/consumer"
+if [ -x "$work/consumer/consumer_cxx" ]; then
+  LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer/consumer_cxx"
+fi
+
+echo "== each installed header alone, twice, in C and C++"
+for h in "$prefix"/include/hetinv/*.h; do
+  name=hetinv/$(basename "$h")
+  printf '#include <%s>\n#include <%s>\nint main(void) { return 0; }\n' "$name" "$name" >"$work/header.c"
+  # shellcheck disable=SC2046
+  cc -std=c11 -Wall -Wextra -Wpedantic -Werror -c -o "$work/header.o" "$work/header.c" $(pkg-config --cflags hetinv) ||
+    { echo "$name does not compile alone in C"; exit 1; }
+  if command -v c++ >/dev/null 2>&1; then
+    # shellcheck disable=SC2046
+    c++ -std=c++17 -Wall -Wextra -Wpedantic -Werror -x c++ -c -o "$work/header.o" "$work/header.c" \
+      $(pkg-config --cflags hetinv) || { echo "$name does not compile alone in C++"; exit 1; }
+  fi
+done
 
 if [ -f "$prefix/include/hetinv/mpi.h" ]; then
   echo "== MPI consumer (pkg-config, find_package)"
