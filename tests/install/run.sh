@@ -29,6 +29,17 @@ cc -std=c11 -Wall -Werror -o "$work/consumer-pkgconfig" "$src/tests/install/cons
   $(pkg-config --cflags --libs hetinv)
 LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer-pkgconfig"
 
+# hetinv.pc must resolve with no other .pc file: the library links its
+# dependencies privately, and a consumer may lack their development packages.
+# (A build with MPI requires ompi-c, which hetinv/mpi.h needs.)
+if [ ! -f "$prefix/include/hetinv/mpi.h" ]; then
+  PKG_CONFIG_LIBDIR="$prefix/$libdir/pkgconfig" pkg-config --exists hetinv ||
+    { echo "hetinv.pc needs other packages' .pc files"; exit 1; }
+  cflags=$(PKG_CONFIG_LIBDIR="$prefix/$libdir/pkgconfig" pkg-config --cflags hetinv)
+  [ "$(echo $cflags)" = "-I$prefix/$libdir/pkgconfig/../../include" ] ||
+    { echo "pkg-config --cflags hetinv gives more than its include folder: $cflags"; exit 1; }
+fi
+
 if command -v c++ >/dev/null 2>&1; then
   echo "== pkg-config, C++"
   for std in c++17 c++20; do
