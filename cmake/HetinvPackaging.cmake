@@ -33,6 +33,9 @@ install(FILES ${PROJECT_BINARY_DIR}/hetinv.pc DESTINATION ${CMAKE_INSTALL_LIBDIR
 
 set(HETINV_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/hetinv)
 install(EXPORT hetinvTargets NAMESPACE hetinv:: DESTINATION ${HETINV_CMAKE_DIR})
+# The build tree is a package too (find_package(hetinv) with hetinv_DIR=<build>):
+# the hetinvConfig.cmake written below includes the hetinvTargets.cmake beside it.
+export(EXPORT hetinvTargets NAMESPACE hetinv:: FILE ${PROJECT_BINARY_DIR}/hetinvTargets.cmake)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/hetinvConfig.cmake.in
   ${PROJECT_BINARY_DIR}/hetinvConfig.cmake INSTALL_DESTINATION ${HETINV_CMAKE_DIR})
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/hetinvConfigVersion.cmake

@@ -2,10 +2,10 @@
 # Builds libhetinv without sanitizers, installs it into a temporary prefix,
 # then builds and runs tests/install/consumer.c twice: with pkg-config and
 # with find_package(hetinv), and with a C++ compiler consumer.cpp both ways
-# too; every installed header compiles alone in C and C++. Further
-# arguments go to the library's cmake configuration; with
-# -DHETINV_WITH_MPI=ON it also builds and runs consumer_mpi.c (hetinv/mpi.h)
-# both ways.
+# too; the build tree is found as a package as well, and every installed
+# header compiles alone in C and C++. Further arguments go to the library's
+# cmake configuration; with -DHETINV_WITH_MPI=ON it also builds and runs
+# consumer_mpi.c (hetinv/mpi.h) both ways.
 #   usage: run.sh <source dir> <scratch dir> [cmake options...]
 set -eu
 src=$1
@@ -57,6 +57,12 @@ LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer/consumer"
 if [ -x "$work/consumer/consumer_cxx" ]; then
   LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer/consumer_cxx"
 fi
+
+echo "== find_package from the build tree"
+cmake -S "$src/tests/install" -B "$work/consumer-build-tree" -Dhetinv_DIR="$work/build" \
+  >"$work/consumer-build-tree.log"
+cmake --build "$work/consumer-build-tree" >>"$work/consumer-build-tree.log"
+"$work/consumer-build-tree/consumer"
 
 echo "== each installed header alone, twice, in C and C++"
 for h in "$prefix"/include/hetinv/*.h; do
