@@ -490,10 +490,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_get_pi(const hetinv_optimizer_t *opt
 HETINV_API hetinv_result_t hetinv_optimizer_result(const hetinv_optimizer_t *optimizer,
                                                    hetinv_medium_t **out) {
   HV_API_ENTER();
+  HV_CHECK_NULL(optimizer ? optimizer->ctx : NULL, out);
+  *out = NULL; /* before the other checks: a failed call never leaves the caller's old handle */
   HV_CHECK_NULL(NULL, optimizer);
   const hetinv_context_t *ctx = optimizer->ctx;
-  HV_CHECK_NULL(ctx, out);
-  *out = NULL;
   hetinv_medium_t *m = NULL;
   hetinv_result_t r = hetinv_medium_clone(optimizer->base ? optimizer->base : optimizer->initial, &m);
   if (r == HETINV_SUCCESS && optimizer->k > 0) {

@@ -284,6 +284,7 @@ static void null_arguments_are_refused(void **state) {
   assert_int_equal(why, HETINV_STOP_NONE);
   hetinv_medium_t *m = (hetinv_medium_t *)(void *)&dummy;
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_result(NULL, &m));
+  assert_null(m); /* as every call that returns a handle: NULL on failure, whichever argument failed */
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_result(opt, NULL));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_pi(NULL, 0, pi, 1));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_pi(opt, 0, NULL, 1));
