@@ -49,6 +49,19 @@
 #ifndef HETINV_MPI_H
 #define HETINV_MPI_H
 
+/* Only MPI's C interface is used. In C++, OpenMPI's and MPICH's <mpi.h> also
+ * declare their C++ bindings (deprecated in MPI-2.2, removed in MPI-3.0),
+ * which need libmpi_cxx at link time (neither pkg-config's ompi-c nor
+ * CMake's MPI::MPI_C links it) and warn under -Wextra: keep them out. A
+ * program that uses them includes <mpi.h> before this header. */
+#if defined(__cplusplus)
+#  ifndef OMPI_SKIP_MPICXX
+#    define OMPI_SKIP_MPICXX 1
+#  endif
+#  ifndef MPICH_SKIP_MPICXX
+#    define MPICH_SKIP_MPICXX 1
+#  endif
+#endif
 #include <mpi.h>
 
 #include "hetinv/context.h"

@@ -85,6 +85,22 @@ if [ -f "$prefix/include/hetinv/mpi.h" ]; then
     $(pkg-config --cflags --libs hetinv)
   LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer-mpi-pkgconfig"
   LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer/consumer_mpi"
+  if command -v c++ >/dev/null 2>&1; then
+    echo "== MPI consumer from C++ (pkg-config, find_package)"
+    # shellcheck disable=SC2046 # word splitting of the flags is intended
+    c++ -std=c++17 -Wall -Wextra -Wpedantic -Werror -x c++ -o "$work/consumer-mpi-cxx-pkgconfig" \
+      "$src/tests/install/consumer_mpi.c" -x none $(pkg-config --cflags --libs hetinv)
+    LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer-mpi-cxx-pkgconfig"
+    LD_LIBRARY_PATH="$prefix/$libdir" "$work/consumer/consumer_mpi_cxx"
+    # A C++-only project cannot have MPI::MPI_C: find_package must say how to fix it.
+    mkdir -p "$work/cxx-only"
+    printf '%s\n' 'cmake_minimum_required(VERSION 3.16)' 'project(cxx_only LANGUAGES CXX)' \
+      'find_package(hetinv REQUIRED CONFIG)' >"$work/cxx-only/CMakeLists.txt"
+    if cmake -S "$work/cxx-only" -B "$work/cxx-only/build" -DCMAKE_PREFIX_PATH="$prefix" \
+      >"$work/cxx-only.log" 2>&1 || ! grep -q 'LANGUAGES C CXX' "$work/cxx-only.log"; then
+      echo "find_package(hetinv) in a C++-only project does not say to enable C:"; cat "$work/cxx-only.log"; exit 1
+    fi
+  fi
 fi
 
 echo "== installed headers"
