@@ -177,7 +177,8 @@ HETINV_API hetinv_result_t hetinv_image_get_size(const hetinv_image_t *image, in
 
 /**
  * @brief Pixels of one channel, width·height floats, row-major, owned by the
- *        image. NULL for a NULL image or a channel out of range.
+ *        image and valid until it is destroyed. NULL for a NULL image or a
+ *        channel out of range.
  */
 HETINV_API float *hetinv_image_channel_data(hetinv_image_t *image, int32_t channel);
 
@@ -193,7 +194,8 @@ HETINV_API float *hetinv_image_channel_data(hetinv_image_t *image, int32_t chann
 HETINV_API hetinv_result_t hetinv_image_set_channel_name(hetinv_image_t *image, int32_t channel,
                                                          const char *name);
 
-/** @brief Name of a channel, owned by the image; NULL if out of range. */
+/** @brief Name of a channel, owned by the image and valid until that channel is
+ *         renamed or the image destroyed; NULL if out of range. */
 HETINV_API const char *hetinv_image_channel_name(const hetinv_image_t *image, int32_t channel);
 
 /**
@@ -231,7 +233,8 @@ HETINV_API int32_t hetinv_image_attribute_count(const hetinv_image_t *image);
 
 /**
  * @brief Name and type of attribute @p index (0 ≤ index < count), in the
- *        order they were set (or read). Either output may be NULL.
+ *        order they were set (or read). Either output may be NULL. The name
+ *        is owned by the image and valid until the image is destroyed.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE.
  */
 HETINV_API hetinv_result_t hetinv_image_attribute_at(const hetinv_image_t *image, int32_t index,
@@ -239,7 +242,9 @@ HETINV_API hetinv_result_t hetinv_image_attribute_at(const hetinv_image_t *image
                                                      hetinv_attribute_type_t *type);
 
 /**
- * @brief Value of the attribute called @p name. The string is owned by the image.
+ * @brief Value of the attribute called @p name. The string is owned by the
+ *        image and valid until that attribute is set again (a new value is a
+ *        new string) or the image is destroyed.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
  *         HETINV_ERROR_OUT_OF_RANGE (no such attribute);
  *         HETINV_ERROR_INVALID_ARGUMENT (it has another type).

@@ -181,7 +181,10 @@ HETINV_API hetinv_result_t hetinv_measurements_set_mask(hetinv_measurements_t *s
 HETINV_API hetinv_result_t hetinv_measurements_mask_saturated(hetinv_measurements_t *set,
                                                               double level, size_t *masked);
 
-/** @brief Measured values (value_count), owned by the set; NULL for NULL or an empty set. */
+/** @brief Measured values (value_count), owned by the set; NULL for NULL or an empty set.
+ *  Valid until the next hetinv_measurements_add() (which moves every array of
+ *  the set) or the set's destruction; the setters copy into it. So are the
+ *  arrays of the five functions below. */
 HETINV_API const double *hetinv_measurements_values(const hetinv_measurements_t *set);
 /** @brief Standard errors of the measured values, like hetinv_measurements_values(). */
 HETINV_API const double *hetinv_measurements_std_errors(const hetinv_measurements_t *set);
