@@ -240,7 +240,7 @@ HETINV_API hetinv_result_t hetinv_sensor_create_hemispherical(const hetinv_mediu
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
  *         (face); HETINV_ERROR_INVALID_ARGUMENT (a centre off the face, a
  *         radius or NA that is not finite and > 0); HETINV_ERROR_OUT_OF_MEMORY.
- *         Thread-safe.
+ *         Thread-safe. Added in 0.3.
  */
 HETINV_API hetinv_result_t hetinv_sensor_create_fiber(const hetinv_medium_t *medium, hetinv_face_t face,
                                                       const double centre[2], double radius,

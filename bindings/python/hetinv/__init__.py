@@ -45,7 +45,7 @@ from .optimizer import Optimizer, Progress, optimizer_param_bounds
 from .acquire import Noisy, apply_noise
 from .image import COLORMAP_GRAY, COLORMAP_VIRIDIS, Image, read_exr
 
-__version__ = "0.2.0"  # the library version this package is written for (pyproject.toml reads it)
+__version__ = "0.3.0"  # the library version this package is written for (pyproject.toml reads it)
 
 
 def version():
