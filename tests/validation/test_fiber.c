@@ -283,33 +283,11 @@ static void gradient_in_a_scattering_medium_matches_crn_finite_differences(void 
   assert_ok(hetinv_measurements_add(set, beam, bottom, steady, NULL));
   double t0 = grad_now();
 
-  hetinv_estimator_t *fd_est = NULL;
-  assert_ok(hetinv_estimator_create(ctx, &fd_est));
-  double per_stream = floor(FD_PHOTONS * (double)HETINV_VALIDATION_SCALE / FD_STREAMS + 0.5);
-  if (per_stream < 64) per_stream = 64;
-  assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_PHOTONS, per_stream));
-  assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_BATCHES, 2));
-  double fd_mean[NVOX][3][VALUES], fd_se[NVOX][3][VALUES], h_used[NVOX][3];
+  hetinv_estimator_t *fd_est = grad_fd_estimator(ctx, FD_PHOTONS, FD_STREAMS);
+  double per_stream, fd_mean[NVOX][3][VALUES], fd_se[NVOX][3][VALUES], h_used[NVOX][3];
+  assert_ok(hetinv_estimator_get_param(fd_est, HETINV_ESTIMATOR_PHOTONS, &per_stream));
   for (int v = 0; v < NVOX; ++v) {
-    double base[3];
-    assert_ok(hetinv_medium_get_voxel(m, voxel[v][0], voxel[v][1], voxel[v][2], &base[0], &base[1], &base[2]));
-    for (hetinv_param_t p = 0; p < HETINV_PARAM_COUNT; ++p) {
-      double h = p == HETINV_PARAM_G ? 0.05 : 0.1 * base[p];
-      h_used[v][p] = h;
-      hetinv_medium_t *plus = grad_perturbed(m, voxel[v], p, base[p] + h);
-      hetinv_medium_t *minus = grad_perturbed(m, voxel[v], p, base[p] - h);
-      double d[VALUES][FD_STREAMS];
-      for (int j = 0; j < FD_STREAMS; ++j) {
-        double ip[VALUES], im[VALUES];
-        assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_STREAM, j));
-        assert_ok(hetinv_estimator_render(fd_est, plus, set, ip, NULL, NULL, VALUES));
-        assert_ok(hetinv_estimator_render(fd_est, minus, set, im, NULL, NULL, VALUES));
-        for (int n = 0; n < VALUES; ++n) d[n][j] = (ip[n] - im[n]) / (2.0 * h);
-      }
-      for (int n = 0; n < VALUES; ++n) grad_mean_se(d[n], FD_STREAMS, &fd_mean[v][p][n], &fd_se[v][p][n]);
-      hetinv_medium_destroy(&plus);
-      hetinv_medium_destroy(&minus);
-    }
+    grad_fd_voxel(fd_est, m, set, voxel[v], VALUES, FD_STREAMS, fd_mean[v][0], fd_se[v][0], h_used[v]);
   }
   hetinv_estimator_destroy(&fd_est);
   double t1 = grad_now();

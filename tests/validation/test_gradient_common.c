@@ -1,6 +1,7 @@
 #include "test_gradient_common.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <time.h>
 
 /* Two-sided Student-t tail P(|T| > t) for real-valued degrees of freedom. */
@@ -59,6 +60,48 @@ hetinv_medium_t *grad_perturbed(const hetinv_medium_t *base, const int32_t voxel
   assert_ok(hetinv_medium_set_voxel(m, voxel[0], voxel[1], voxel[2], v[0], v[1], v[2]));
   assert_ok(hetinv_medium_commit(m));
   return m;
+}
+
+hetinv_estimator_t *grad_fd_estimator(hetinv_context_t *ctx, double photons_all_streams, int streams) {
+  hetinv_estimator_t *est = NULL;
+  assert_ok(hetinv_estimator_create(ctx, &est));
+  double per_stream = floor(photons_all_streams * (double)HETINV_VALIDATION_SCALE / streams + 0.5);
+  if (per_stream < 64) per_stream = 64;
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, per_stream));
+  assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
+  return est;
+}
+
+void grad_fd_voxel(hetinv_estimator_t *fd_est, const hetinv_medium_t *m, const hetinv_measurements_t *set,
+                   const int32_t voxel[3], int values, int streams, double *mean, double *se,
+                   double h[HETINV_PARAM_COUNT]) {
+  double base[HETINV_PARAM_COUNT];
+  assert_ok(hetinv_medium_get_voxel(m, voxel[0], voxel[1], voxel[2], &base[0], &base[1], &base[2]));
+  /* d[n·streams + j]: value n's difference on stream j; ip, im: one render. */
+  double *d = malloc((size_t)values * (size_t)streams * sizeof *d);
+  double *ip = malloc((size_t)values * sizeof *ip), *im = malloc((size_t)values * sizeof *im);
+  assert_non_null(d);
+  assert_non_null(ip);
+  assert_non_null(im);
+  for (hetinv_param_t p = 0; p < HETINV_PARAM_COUNT; ++p) {
+    h[p] = p == HETINV_PARAM_G ? 0.05 : 0.1 * base[p];
+    hetinv_medium_t *plus = grad_perturbed(m, voxel, p, base[p] + h[p]);
+    hetinv_medium_t *minus = grad_perturbed(m, voxel, p, base[p] - h[p]);
+    for (int j = 0; j < streams; ++j) {
+      assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_STREAM, j));
+      assert_ok(hetinv_estimator_render(fd_est, plus, set, ip, NULL, NULL, (size_t)values));
+      assert_ok(hetinv_estimator_render(fd_est, minus, set, im, NULL, NULL, (size_t)values));
+      for (int n = 0; n < values; ++n) d[(size_t)n * (size_t)streams + (size_t)j] = (ip[n] - im[n]) / (2.0 * h[p]);
+    }
+    for (int n = 0; n < values; ++n) {
+      grad_mean_se(d + (size_t)n * (size_t)streams, streams, &mean[p * values + n], &se[p * values + n]);
+    }
+    hetinv_medium_destroy(&plus);
+    hetinv_medium_destroy(&minus);
+  }
+  free(d);
+  free(ip);
+  free(im);
 }
 
 double grad_now(void) {

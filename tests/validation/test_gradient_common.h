@@ -49,4 +49,18 @@ double grad_now(void);
 hetinv_medium_t *grad_perturbed(const hetinv_medium_t *base, const int32_t voxel[3],
                                 hetinv_param_t param, double value);
 
+/* The estimator of CRN finite differences: photons_all_streams (scaled by
+ * HETINV_VALIDATION_SCALE, at least 64 a stream) spread over `streams`
+ * renders, in 2 batches each (the streams, not the batches, give the error). */
+hetinv_estimator_t *grad_fd_estimator(hetinv_context_t *ctx, double photons_all_streams, int streams);
+
+/* CRN central differences of the `values` values of `set` with respect to
+ * each parameter p of one voxel: stream j < `streams` renders both sides,
+ * base ± h[p], so their noise largely cancels (h: 0.05 for g, a tenth of
+ * the value otherwise). Writes mean[p·values + n] and se[p·values + n]
+ * over the streams, and h[p]. */
+void grad_fd_voxel(hetinv_estimator_t *fd_est, const hetinv_medium_t *m, const hetinv_measurements_t *set,
+                   const int32_t voxel[3], int values, int streams, double *mean, double *se,
+                   double h[HETINV_PARAM_COUNT]);
+
 #endif

@@ -133,9 +133,6 @@ static void scene_destroy(scene_t *s) {
   hetinv_context_destroy(&s->ctx);
 }
 
-/* Step of the central difference of parameter p at value v. */
-static double step(hetinv_param_t p, double v) { return p == HETINV_PARAM_G ? 0.05 : 0.1 * v; }
-
 static void gradient_matches_crn_finite_differences(void **state) {
   (void)state;
   scene_t s;
@@ -143,34 +140,11 @@ static void gradient_matches_crn_finite_differences(void **state) {
   double t0 = grad_now();
 
   /* Finite differences: fd[v][p][n] over STREAMS streams. */
-  hetinv_estimator_t *fd_est = NULL;
-  assert_ok(hetinv_estimator_create(s.ctx, &fd_est));
-  double per_stream = floor(FD_PHOTONS * (double)HETINV_VALIDATION_SCALE / STREAMS + 0.5);
-  if (per_stream < 64) per_stream = 64;
-  assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_PHOTONS, per_stream));
-  assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_BATCHES, 2));
-  double fd_mean[NVOX][3][VALUES], fd_se[NVOX][3][VALUES], h_used[NVOX][3];
+  hetinv_estimator_t *fd_est = grad_fd_estimator(s.ctx, FD_PHOTONS, STREAMS);
+  double per_stream, fd_mean[NVOX][3][VALUES], fd_se[NVOX][3][VALUES], h_used[NVOX][3];
+  assert_ok(hetinv_estimator_get_param(fd_est, HETINV_ESTIMATOR_PHOTONS, &per_stream));
   for (int v = 0; v < NVOX; ++v) {
-    double base[3];
-    assert_ok(hetinv_medium_get_voxel(s.medium, voxel[v][0], voxel[v][1], voxel[v][2], &base[0],
-                                      &base[1], &base[2]));
-    for (hetinv_param_t p = 0; p < HETINV_PARAM_COUNT; ++p) {
-      double h = step(p, base[p]);
-      h_used[v][p] = h;
-      hetinv_medium_t *plus = grad_perturbed(s.medium, voxel[v], p, base[p] + h);
-      hetinv_medium_t *minus = grad_perturbed(s.medium, voxel[v], p, base[p] - h);
-      double d[VALUES][STREAMS];
-      for (int j = 0; j < STREAMS; ++j) {
-        double ip[VALUES], im[VALUES];
-        assert_ok(hetinv_estimator_set_param(fd_est, HETINV_ESTIMATOR_STREAM, j));
-        assert_ok(hetinv_estimator_render(fd_est, plus, s.set, ip, NULL, NULL, VALUES));
-        assert_ok(hetinv_estimator_render(fd_est, minus, s.set, im, NULL, NULL, VALUES));
-        for (int n = 0; n < VALUES; ++n) d[n][j] = (ip[n] - im[n]) / (2.0 * h);
-      }
-      for (int n = 0; n < VALUES; ++n) grad_mean_se(d[n], STREAMS, &fd_mean[v][p][n], &fd_se[v][p][n]);
-      hetinv_medium_destroy(&plus);
-      hetinv_medium_destroy(&minus);
-    }
+    grad_fd_voxel(fd_est, s.medium, s.set, voxel[v], VALUES, STREAMS, fd_mean[v][0], fd_se[v][0], h_used[v]);
   }
   hetinv_estimator_destroy(&fd_est);
   double t1 = grad_now();
