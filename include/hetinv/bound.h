@@ -98,8 +98,13 @@ HETINV_API hetinv_result_t hetinv_estimator_fisher(
  * in a nearly singular F, or parameters the measurements cannot tell
  * apart), *positive_definite is 0, the bound is NaN and only @p sd_lower
  * is meaningful; more photons or replicates, or a coarser map, help.
- * @param estimator, medium, set, variances, count, map, replicates as for
- *        hetinv_estimator_fisher().
+ * @param estimator as for hetinv_estimator_fisher().
+ * @param medium as for hetinv_estimator_fisher().
+ * @param set as for hetinv_estimator_fisher().
+ * @param variances as for hetinv_estimator_fisher().
+ * @param count as for hetinv_estimator_fisher().
+ * @param map as for hetinv_estimator_fisher().
+ * @param replicates as for hetinv_estimator_fisher().
  * @param[out] sd receives k standard deviations, in the units of π.
  * @param[out] sd_std_errors their jackknife standard errors over the
  *        replicates (NaN if a leave-one-out matrix is not positive
@@ -134,8 +139,12 @@ HETINV_API hetinv_result_t hetinv_estimator_crb(
  * sqrt((F⁻¹)_kk) (equal only when entry k is uncorrelated with the
  * others): what entry k could reach if all the others were known. It is
  * not the bound itself; use hetinv_estimator_crb() where K allows.
- * @param estimator, medium, set, variances, count, map as for
- *        hetinv_estimator_fisher().
+ * @param estimator as for hetinv_estimator_fisher().
+ * @param medium as for hetinv_estimator_fisher().
+ * @param set as for hetinv_estimator_fisher().
+ * @param variances as for hetinv_estimator_fisher().
+ * @param count as for hetinv_estimator_fisher().
+ * @param map as for hetinv_estimator_fisher().
  * @param probes R, from 2 to #HETINV_FISHER_MAX_REPLICATES.
  * @param[out] diagonal receives k estimates of F_kk (a single one can be
  *        ≤ 0 from noise).
@@ -201,8 +210,12 @@ HETINV_API hetinv_result_t hetinv_fisher_local_crb(const hetinv_param_map_t *map
  * Costs per replicate: one tangent pass of T = classes·P tangents and T
  * gradient passes, classes = spacing³ (fewer on axes with fewer cells);
  * memory 3·voxels·T + values·T + T·k doubles.
- * @param estimator, medium, set, variances, count, map as for
- *        hetinv_estimator_fisher().
+ * @param estimator as for hetinv_estimator_fisher().
+ * @param medium as for hetinv_estimator_fisher().
+ * @param set as for hetinv_estimator_fisher().
+ * @param variances as for hetinv_estimator_fisher().
+ * @param count as for hetinv_estimator_fisher().
+ * @param map as for hetinv_estimator_fisher().
  * @param spacing 1 to 16 (1: one class, every cell probed at once).
  * @param replicates R, from 2 to #HETINV_FISHER_MAX_REPLICATES.
  * @param[out] blocks cells·P·P values: cell c's block at

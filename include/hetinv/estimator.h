@@ -159,7 +159,8 @@ HETINV_API void hetinv_estimator_destroy(hetinv_estimator_t **estimator);
 /**
  * @brief Valid range of a parameter (integers are passed as doubles).
  * @param param the parameter.
- * @param[out] lo, hi the inclusive bounds; may be NULL.
+ * @param[out] lo the inclusive lower bound; may be NULL.
+ * @param[out] hi the inclusive upper bound; may be NULL.
  * @return HETINV_SUCCESS; HETINV_ERROR_OUT_OF_RANGE for an unknown parameter.
  */
 HETINV_API hetinv_result_t hetinv_estimator_param_bounds(hetinv_estimator_param_t param,

@@ -152,7 +152,9 @@ enum hetinv_colormap_id {
  * @brief Create an image with all pixels 0, channels named "c0", "c1", ...
  *        and no attributes.
  * @param ctx the context; the image must be destroyed before it.
- * @param width, height, channel_count each > 0, with at most
+ * @param width pixels per row, > 0.
+ * @param height rows, > 0.
+ * @param channel_count channels, > 0; width·height·channel_count at most
  *        HETINV_MAX_IMAGE_VALUES floats in all.
  * @param[out] out receives the image; NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
@@ -306,7 +308,8 @@ HETINV_API hetinv_result_t hetinv_image_read_exr(hetinv_context_t *ctx, const ch
  * @param image the image; only read.
  * @param channel index of the channel to draw.
  * @param path destination; replaced atomically if it exists.
- * @param lo, hi range; if lo == hi the channel's finite minimum and maximum are used.
+ * @param lo the value drawn as the colormap's first colour.
+ * @param hi the value drawn as its last; if lo == hi the channel's finite minimum and maximum are used.
  * @param colormap a value of enum hetinv_colormap_id.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
  *         (channel, colormap); HETINV_ERROR_INVALID_ARGUMENT (non-finite or

@@ -60,8 +60,9 @@ HETINV_API void hetinv_measurements_destroy(hetinv_measurements_t **set);
 /**
  * @brief Append a row. Its values start at 0 with weight 1, unmasked.
  * @param set the set.
- * @param emitter, sensor, pathlength the row's sampling functions; borrowed:
- *        they must outlive the set.
+ * @param emitter the row's emitter; borrowed: it must outlive the set.
+ * @param sensor the row's sensor; borrowed likewise.
+ * @param pathlength the row's pathlength window; borrowed likewise.
  * @param[out] row receives the row's index; may be NULL.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT;
  *         HETINV_ERROR_INVALID_ARGUMENT if the emitter or sensor was created

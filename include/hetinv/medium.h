@@ -64,8 +64,9 @@ HETINV_API const char *hetinv_param_name(hetinv_param_t param);
  * @brief Create a medium filling the box [box_min, box_max] with a grid of
  *        dims[0] × dims[1] × dims[2] voxels.
  * @param ctx the context; the medium must be destroyed before it.
- * @param box_min, box_max corners; every coordinate finite and
+ * @param box_min the lower corner; every coordinate finite and
  *        box_min[i] < box_max[i]. Read during the call only.
+ * @param box_max the upper corner, likewise.
  * @param dims voxel counts, each > 0, whose product is at most
  *        HETINV_MAX_VOXELS. Read during the call only.
  * @param[out] out receives the medium (uncommitted); NULL on failure.

@@ -313,7 +313,8 @@ HETINV_API void hetinv_optimizer_destroy(hetinv_optimizer_t **optimizer);
 /**
  * @brief Valid range of a tunable (integers are passed as doubles).
  * @param param the tunable.
- * @param[out] lo, hi the inclusive bounds; may be NULL.
+ * @param[out] lo the inclusive lower bound; may be NULL.
+ * @param[out] hi the inclusive upper bound; may be NULL.
  * @return HETINV_SUCCESS; HETINV_ERROR_OUT_OF_RANGE for an unknown tunable.
  */
 HETINV_API hetinv_result_t hetinv_optimizer_param_bounds(hetinv_optimizer_param_t param,
@@ -356,9 +357,10 @@ HETINV_API hetinv_result_t hetinv_optimizer_get_param(const hetinv_optimizer_t *
  * entries' scales s_k = hi − lo. Not allowed once a run has started.
  * @param optimizer the optimizer.
  * @param param HETINV_PARAM_SIGMA_A, _SIGMA_S or _G.
- * @param lo, hi the bounds: lo < hi, within the parameter's domain
- *        (σ ≥ 0; −1 < g < 1); hi may be +∞ for σ; a finite hi − lo at
- *        most HETINV_OPTIMIZER_MAX_BOX_WIDTH.
+ * @param lo the lower bound, within the parameter's domain (σ ≥ 0;
+ *        −1 < g < 1), lo < hi.
+ * @param hi the upper bound, within the domain; +∞ allowed for σ; a finite
+ *        hi − lo at most HETINV_OPTIMIZER_MAX_BOX_WIDTH.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
  *         (param); HETINV_ERROR_INVALID_ARGUMENT (bounds);
  *         HETINV_ERROR_INVALID_STATE (run started).

@@ -101,11 +101,13 @@ HETINV_API hetinv_result_t hetinv_emitter_create_ideal(const hetinv_medium_t *me
  * @param medium gives the box and refractive indices; only read.
  * @param face the lit face.
  * @param direction travel direction, pointing into the face.
- * @param rect_min, rect_max face coordinates (u, v) of the lit rectangle,
- *        inside the face, min < max.
- * @param pattern_width, pattern_height pattern size (> 0, product at most
- *        HETINV_MAX_PATTERN_CELLS); the pattern covers the rectangle, row 0
- *        at v = rect_min[1].
+ * @param rect_min face coordinates (u, v) of the lit rectangle's lower
+ *        corner, inside the face, rect_min[i] < rect_max[i].
+ * @param rect_max its upper corner, inside the face.
+ * @param pattern_width pattern cells per row (> 0).
+ * @param pattern_height pattern rows (> 0; pattern_width·pattern_height at
+ *        most HETINV_MAX_PATTERN_CELLS); the pattern covers the rectangle,
+ *        row 0 at v = rect_min[1].
  * @param pattern pattern_width·pattern_height weights ≥ 0, not all zero,
  *        u fastest; NULL for a uniform rectangle. Copied.
  *        The emitted power (1) is spread over the rectangle in proportion
@@ -183,7 +185,8 @@ HETINV_API void hetinv_emitter_destroy(hetinv_emitter_t **emitter);
  *        normal).
  * @param origin face coordinates of pixel (0, 0)'s lower corner.
  * @param pixel_size pixel extent along u and v, each > 0.
- * @param width, height pixel counts, each > 0, with width·height at most
+ * @param width pixels per row, > 0.
+ * @param height rows of pixels, > 0; width·height at most
  *        HETINV_MAX_SENSOR_PIXELS.
  * @param[out] out receives the sensor; NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE
@@ -204,8 +207,9 @@ HETINV_API hetinv_result_t hetinv_sensor_create_orthographic(
  *        One value.
  * @param medium gives the box and refractive indices; only read.
  * @param face the face.
- * @param rect_min, rect_max face coordinates of the rectangle; both NULL for
- *        the whole face.
+ * @param rect_min face coordinates of the rectangle's lower corner; NULL,
+ *        with rect_max NULL, for the whole face.
+ * @param rect_max its upper corner; NULL with rect_min.
  * @param[out] out receives the sensor; NULL on failure.
  * @return HETINV_SUCCESS; HETINV_ERROR_NULL_ARGUMENT; HETINV_ERROR_OUT_OF_RANGE;
  *         HETINV_ERROR_INVALID_ARGUMENT (empty or non-finite rectangle, only
@@ -337,7 +341,10 @@ HETINV_API hetinv_result_t hetinv_pathlength_create_bins(hetinv_context_t *ctx,
  * sample: an IRF of J non-zero samples makes every splat about J times as
  * expensive (subsample a finely sampled IRF to the bin width or so).
  * @param ctx the context.
- * @param window, count, centres, width the bins, as for hetinv_pathlength_create_bins().
+ * @param window as for hetinv_pathlength_create_bins().
+ * @param count as for hetinv_pathlength_create_bins().
+ * @param centres as for hetinv_pathlength_create_bins().
+ * @param width as for hetinv_pathlength_create_bins().
  * @param irf_count number of IRF samples, in [1, HETINV_MAX_IRF_SAMPLES].
  * @param irf_offsets irf_count finite pathlength offsets d_j (the medium's
  *        length unit; any sign, any order). Copied.

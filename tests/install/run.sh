@@ -76,6 +76,12 @@ for h in "$prefix"/include/hetinv/*.h; do
     c++ -std=c++17 -Wall -Wextra -Wpedantic -Werror -x c++ -c -o "$work/header.o" "$work/header.c" \
       $(pkg-config --cflags hetinv) || { echo "$name does not compile alone in C++"; exit 1; }
   fi
+  # Clang checks the Doxygen comments against the declarations (one name per @param).
+  if command -v clang >/dev/null 2>&1; then
+    # shellcheck disable=SC2046
+    clang -std=c11 -Wdocumentation -Werror -fsyntax-only "$work/header.c" $(pkg-config --cflags hetinv) ||
+      { echo "$name: its documentation comments do not match its declarations (clang -Wdocumentation)"; exit 1; }
+  fi
 done
 
 if [ -f "$prefix/include/hetinv/mpi.h" ]; then
