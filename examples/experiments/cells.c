@@ -228,6 +228,15 @@ int experiment_cell_store(const char *dir, const char *key, const experiment_cel
   return recon_text_commit(f, tmp, path);
 }
 
+int experiment_record_drop(const char *dir, const char *record, char *why, size_t why_size) {
+  char path[1200];
+  snprintf(path, sizeof path, "%s/%s", dir, record);
+  if (remove(path) == 0 || errno == ENOENT) return 0;
+  snprintf(why, why_size, "%s: %s (the record of an earlier run under other settings; remove it to go on)", path,
+           strerror(errno));
+  return -1;
+}
+
 /* What the data depend on: the truth, the imaging, the acquisition, the
  * loss's weights and mask and the seed; none of the optimizer's settings. */
 static void data_key(const recon_scene_t *sc, char *key, size_t key_size) {

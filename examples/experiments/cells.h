@@ -33,6 +33,13 @@ int experiment_cell_load(const char *dir, const char *key, experiment_cell_t *ce
 /* Writes <dir>/cell.csv whole or not at all; -1 with errno on failure. */
 int experiment_cell_store(const char *dir, const char *key, const experiment_cell_t *cell);
 
+/* Removes <dir>/<record> (cell.csv, bound.csv) before the files it
+ * describes are computed again under another key, so that a run stopped
+ * or failing half-way cannot leave an old record beside new files (which
+ * a later run under the old settings would take as that cell's). 0 if
+ * removed or absent; -1 with a message naming the file in why. */
+int experiment_record_drop(const char *dir, const char *record, char *why, size_t why_size);
+
 /* A cell's Cramér–Rao bound at its truth (recon_bound_t's summary):
  * what the configuration's data allow, beside what the recovery reached. */
 typedef struct experiment_bound {

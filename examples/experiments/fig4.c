@@ -548,6 +548,9 @@ static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photon
     return 1;
   }
   int found = experiment_bound_load(sc->output, key, b, why, sizeof why);
+  /* Another key's record goes before the maps it describes are replaced
+   * (computed or copied below). */
+  if (found == 0 && experiment_record_drop(sc->output, "bound.csv", why, sizeof why) != 0) found = -1;
   if (found == 0 && bound_from != NULL) {
     /* The same cell's folder in the other run: config<c>_volume<v>. */
     const char *cell = strrchr(sc->output, '/');
@@ -641,6 +644,11 @@ int main(int argc, char **argv) {
         return 1;
       }
       bool reused = found == 1;
+      /* Another key's record goes first: this cell's files are about to be replaced. */
+      if (!reused && experiment_record_drop(sc.output, "cell.csv", why, sizeof why) != 0) {
+        fprintf(stderr, "hetinv-fig4: %s\n", why);
+        return 1;
+      }
       if (!reused && run_cell(&sc, o.threads, o.quiet, &cell) != 0) return 1;
       if (!reused && experiment_cell_store(sc.output, key, &cell) != 0) {
         fprintf(stderr, "hetinv-fig4: %s/cell.csv: %s\n", sc.output, strerror(errno));

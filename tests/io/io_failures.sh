@@ -8,7 +8,7 @@
 #   io_failures.sh <case> <folder of the programs> <source tree> <work folder>
 #
 # Cases (one CTest test each): unwritable, not_folder, full_disk, stdout_full,
-# text_outputs, lock, lock_link, stale_temporaries. Exit status 0 pass, 1 fail, 77 skip
+# text_outputs, lock, lock_link, stale_temporaries, stale_records. Exit status 0 pass, 1 fail, 77 skip
 # (a case the machine cannot stage: mounting a small file system, /dev/full).
 # Tests run as root, for whom permission bits do not deny writes, so an
 # unwritable folder is /proc (no files can be created there) or a read-only
@@ -347,6 +347,47 @@ stale_temporaries)
       [ -e "$dir/$f" ] || fail "$p: $f was removed (not a temporary of the writers)"
     done
   done
+  ;;
+
+stale_records)
+  # hetinv-fig4 reads a finished cell back from its cell.csv (bound.csv for
+  # its bound). A run under other settings that stops after replacing some
+  # of the cell's files (killed, or a failed write: here a folder in the
+  # place of maps.exr, bound_g.png) must not leave the old record beside
+  # them: a rerun under the old settings would report the old figures as
+  # that cell's while its folder holds the other run's recovery.
+  dir=$work/fig4
+  cell=$dir/config1_volume1
+  f4="--grid 2 --volumes 1 --photons 20 --configs 1 --threads 1 --quiet -o $dir"
+  run x hetinv-fig4 $f4 --iterations 40
+  [ "$rc" -eq 0 ] || fail "first run: exit status $rc: $(cat "$work/x.err")"
+  cp "$cell/recovered_sigma_a.vol" "$work/x_recovered_sigma_a.vol"
+  rm -f "$cell/maps.exr"
+  mkdir -p "$cell/maps.exr/in-the-way"
+  run y hetinv-fig4 $f4 --iterations 41
+  expect_failure y "maps.exr"
+  # Its checkpoint too, which a rerun under the old settings would refuse.
+  rm -r "$cell/maps.exr" "$cell/checkpoint.bin"
+  run x2 hetinv-fig4 $f4 --iterations 40
+  [ "$rc" -eq 0 ] || fail "rerun: exit status $rc: $(cat "$work/x2.err")"
+  [ -s "$cell/maps.exr" ] || fail "the rerun reused the cell without its maps.exr"
+  cmp -s "$work/x_recovered_sigma_a.vol" "$cell/recovered_sigma_a.vol" ||
+    fail "the rerun reused cell.csv beside recovered_sigma_a.vol of the run under other settings"
+  # The bound: bound.exr replaced, bound_g.png in the way.
+  run bx hetinv-fig4 $f4 --iterations 40 --bound-only --bound-photons 30 --bound-replicates 2
+  [ "$rc" -eq 0 ] || fail "bound: exit status $rc: $(cat "$work/bx.err")"
+  cp "$cell/bound.exr" "$work/bx_bound.exr"
+  rm -f "$cell/bound_g.png"
+  mkdir -p "$cell/bound_g.png/in-the-way"
+  run by hetinv-fig4 $f4 --iterations 40 --bound-only --bound-photons 31 --bound-replicates 2
+  expect_failure by "bound_g.png"
+  rm -r "$cell/bound_g.png"
+  run bx2 hetinv-fig4 $f4 --iterations 40 --bound-only --bound-photons 30 --bound-replicates 2
+  [ "$rc" -eq 0 ] || fail "bound rerun: exit status $rc: $(cat "$work/bx2.err")"
+  [ -s "$cell/bound_g.png" ] || fail "the rerun reused the bound without its bound_g.png"
+  cmp -s "$work/bx_bound.exr" "$cell/bound.exr" ||
+    fail "the rerun reused bound.csv beside bound.exr of the run under other settings"
+  expect_no_temporaries "$dir"
   ;;
 
 *)
