@@ -473,7 +473,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_save(const hetinv_optimizer_t *optim
  *         HETINV_ERROR_UNSUPPORTED (a format version other than 2 to 7,
  *         today's; or another byte order);
  *         HETINV_ERROR_INVALID_ARGUMENT (written by a differently configured
- *         optimizer; the message names what differs);
+ *         optimizer; the message names what differs, also for a file too
+ *         large for this configuration whose header names another one);
  *         HETINV_ERROR_INVALID_STATE (run started); HETINV_ERROR_OUT_OF_MEMORY.
  *         On failure the optimizer is unchanged.
  */

@@ -102,11 +102,14 @@ static uint64_t max_checkpoint_size(const hetinv_optimizer_t *opt) {
 
 /* --- the file -------------------------------------------------------------- */
 
+static const char *another_run(const hetinv_optimizer_t *opt, int fd, char *msg, size_t size);
+
 /* Reads a regular file of at most `limit` bytes. O_NONBLOCK keeps the open
  * of a FIFO from waiting for a writer (it is refused after fstat); it does
  * not change reads of a regular file. */
-static hetinv_result_t read_file(const hetinv_context_t *ctx, const char *path, uint64_t limit,
+static hetinv_result_t read_file(const hetinv_optimizer_t *opt, const char *path, uint64_t limit,
                                  unsigned char **data, size_t *len) {
+  const hetinv_context_t *ctx = opt->ctx;
   *data = NULL;
   *len = 0;
   int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
@@ -118,9 +121,15 @@ static hetinv_result_t read_file(const hetinv_context_t *ctx, const char *path, 
   } else if (!S_ISREG(st.st_mode)) {
     r = HV_FAIL(ctx, HETINV_ERROR_IO, "the checkpoint '%s' is not a regular file", path);
   } else if (st.st_size < 0 || (uint64_t)st.st_size > limit || (uint64_t)st.st_size > SIZE_MAX) {
-    r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
-                "the checkpoint '%s' is %lld bytes; a checkpoint of this run has at most %llu", path,
-                (long long)st.st_size, (unsigned long long)limit);
+    char msg[256];
+    const char *diff = another_run(opt, fd, msg, sizeof msg);
+    if (diff != NULL) {
+      r = HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "'%s' was written for another run: %s", path, diff);
+    } else {
+      r = HV_FAIL(ctx, HETINV_ERROR_CORRUPT_FILE,
+                  "the checkpoint '%s' is %lld bytes; a checkpoint of this run has at most %llu", path,
+                  (long long)st.st_size, (unsigned long long)limit);
+    }
   }
   size_t size = r == HETINV_SUCCESS ? (size_t)st.st_size : 0;
   unsigned char *buf = size > 0 ? hv_alloc(ctx, size) : NULL;
@@ -403,6 +412,43 @@ static void read_fingerprint(reader_t *rd, uint64_t version, hv_ckpt_fingerprint
   rd->has_geometry = version >= 7;
 }
 
+/* What differs between the configuration a fingerprint was read for
+ * (read_fingerprint) and this run's, or NULL. */
+static const char *fingerprint_diff(const reader_t *rd, const hetinv_optimizer_t *opt,
+                                    const hv_ckpt_fingerprint_t *saved, char *msg, size_t size) {
+  hv_ckpt_fingerprint_t here;
+  hv_ckpt_fingerprint(opt, &here);
+  memcpy(here.est_param, saved->est_param, sizeof here.est_param); /* compared when the run continues */
+  here.gain_mode = saved->gain_mode;                                 /* so is this */
+  if (!rd->has_geometry) here.geometry_hash = saved->geometry_hash; /* an older format: cannot be checked */
+  return hv_ckpt_fingerprint_diff(saved, &here, msg, size);
+}
+
+/* A file longer than any checkpoint of this run is refused from its size,
+ * unread. Most often it is an intact checkpoint of another configuration
+ * (more iterations, a larger map: a rerun under changed settings), whose
+ * difference is the reason to give, as for a file of the right size; so
+ * its fixed-size head is read and compared. The checksum over the whole
+ * file is not verified here, but the file is refused either way: an
+ * unverified head only chooses the message. NULL where the head is not a
+ * checkpoint's of a supported format or names no difference. */
+static const char *another_run(const hetinv_optimizer_t *opt, int fd, char *msg, size_t size) {
+  unsigned char head[3 * 8 + sizeof(hv_ckpt_fingerprint_t)];
+  ssize_t n = pread(fd, head, sizeof head, 0);
+  if (n <= 0) return NULL;
+  reader_t rd = {.ctx = opt->ctx, .name = "", .p = head, .len = (size_t)n};
+  char magic[8];
+  get(&rd, magic, 8);
+  uint64_t tag = get_u64(&rd), version = get_u64(&rd);
+  if (rd.short_read || memcmp(magic, HV_CKPT_MAGIC, 8) != 0 || tag != HV_CKPT_BYTE_ORDER_TAG ||
+      version < HV_CKPT_FORMAT_OLDEST || version > HV_CKPT_FORMAT_VERSION) {
+    return NULL;
+  }
+  hv_ckpt_fingerprint_t saved;
+  read_fingerprint(&rd, version, &saved);
+  return rd.short_read ? NULL : fingerprint_diff(&rd, opt, &saved, msg, size);
+}
+
 /* Header, checksum and format; then the configuration it was written for. */
 static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *saved) {
   char magic[8];
@@ -422,13 +468,8 @@ static hetinv_result_t read_header(reader_t *rd, hetinv_optimizer_t *opt, hv_ckp
   }
   read_fingerprint(rd, version, saved);
   if (rd->short_read) return corrupt(rd, "truncated in its fingerprint");
-  hv_ckpt_fingerprint_t here;
-  hv_ckpt_fingerprint(opt, &here);
-  memcpy(here.est_param, saved->est_param, sizeof here.est_param); /* compared when the run continues */
-  here.gain_mode = saved->gain_mode;                                 /* so is this */
-  if (!rd->has_geometry) here.geometry_hash = saved->geometry_hash; /* an older format: cannot be checked */
   char msg[256];
-  const char *diff = hv_ckpt_fingerprint_diff(saved, &here, msg, sizeof msg);
+  const char *diff = fingerprint_diff(rd, opt, saved, msg, sizeof msg);
   if (diff) {
     return HV_FAIL(rd->ctx, HETINV_ERROR_INVALID_ARGUMENT, "%s was written for another run: %s", rd->name,
                    diff);
@@ -516,7 +557,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_resume(hetinv_optimizer_t *optimizer
   hv_optimizer_resolve_iterations(opt);
   unsigned char *data = NULL;
   size_t len = 0;
-  hetinv_result_t r = read_file(ctx, path, max_checkpoint_size(opt), &data, &len);
+  hetinv_result_t r = read_file(opt, path, max_checkpoint_size(opt), &data, &len);
   if (r != HETINV_SUCCESS) return r;
   char name[1024];
   snprintf(name, sizeof name, "'%s'", path);

@@ -186,6 +186,14 @@ static void resume_refuses_another_configuration(void **state) {
   expect_refused(opt, path, "stage 0");
   assert_message_contains("iterations 8 vs 9");
   hetinv_optimizer_destroy(&opt);
+  /* Fewer iterations: the checkpoint (at iteration 4) is longer than any
+   * this run writes, and is refused naming the difference, not its size. */
+  t = s;
+  t.iterations[0] = 3;
+  opt = make_optimizer(p, &t);
+  expect_refused(opt, path, "stage 0");
+  assert_message_contains("iterations 8 vs 3");
+  hetinv_optimizer_destroy(&opt);
   /* A stage's own starting ε. */
   t = s;
   t.epsilon_start[0] = 0.02;
