@@ -223,7 +223,10 @@ int experiment_cell_store(const char *dir, const char *key, const experiment_cel
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
   if (f == NULL) return -1;
   fprintf(f, "key,%s\nparam,mean,max\n", key);
-  for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.9g,%.9g\n", NAMES[p], cell->errors.mean[p], cell->errors.max[p]);
+  /* %.17g: read back, the figures are the computed doubles, so a table of
+   * stored cells prints what the run that computed them printed (%.9g,
+   * rounded twice, moved a last printed digit). */
+  for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.17g,%.17g\n", NAMES[p], cell->errors.mean[p], cell->errors.max[p]);
   fprintf(f, "seconds,%.3f\n", cell->seconds);
   return recon_text_commit(f, tmp, path);
 }
@@ -311,8 +314,8 @@ int experiment_bound_store(const char *dir, const char *key, const experiment_bo
   FILE *f = recon_text_begin(path, tmp, sizeof tmp);
   if (f == NULL) return -1;
   fprintf(f, "key,%s\nparam,mean,median,max,lower_mean,local_mean,local_max\n", key);
-  for (int p = 0; p < 3; ++p) {
-    fprintf(f, "%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", NAMES[p], b->mean[p], b->median[p], b->max[p],
+  for (int p = 0; p < 3; ++p) { /* %.17g: as experiment_cell_store */
+    fprintf(f, "%s,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", NAMES[p], b->mean[p], b->median[p], b->max[p],
             b->lower_mean[p], b->local_mean[p], b->local_max[p]);
   }
   fprintf(f, "positive_definite,%d\nlocal_radius,%d\nseconds,%.3f\n", (int)b->positive_definite,

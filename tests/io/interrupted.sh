@@ -1,0 +1,107 @@
+#!/bin/sh
+# Interrupted runs of the example programs: a run killed part-way and run
+# again (hetinv-reconstruct --resume; hetinv-fig4 cell by cell) ends with
+# the results of a run never interrupted, bit for bit, its run time aside.
+#
+#   interrupted.sh <case> <folder of the programs> <source tree> <work folder>
+#
+# Cases (one CTest test each): reconstruct_killed, fig4_killed. Exit status
+# 0 pass, 1 fail. The kill comes once a checkpoint exists (the run is then
+# mid-way); on a machine fast enough to finish first, the rerun still has
+# to give the same results.
+set -u
+case_name=$1
+bin=$2
+src=$3
+work_root=$4
+work=$work_root/$case_name
+failures=0
+
+rm -rf "$work"
+mkdir -p "$work"
+
+fail() {
+  echo "FAIL: $*"
+  failures=$((failures + 1))
+}
+
+# kill_when <file> <pid>: SIGKILL to pid once file exists (or the process ended).
+kill_when() {
+  i=0
+  while [ ! -e "$1" ] && kill -0 "$2" 2>/dev/null && [ $i -lt 3000 ]; do
+    sleep 0.01
+    i=$((i + 1))
+  done
+  kill -9 "$2" 2>/dev/null
+  wait "$2" 2>/dev/null
+}
+
+# same <a> <b> <file...>: each file byte for byte equal in folders a and b.
+same() {
+  a=$1
+  b=$2
+  shift 2
+  for f in "$@"; do
+    if [ ! -e "$b/$f" ]; then
+      fail "$b/$f is missing"
+    elif ! cmp -s "$a/$f" "$b/$f"; then
+      fail "$b/$f differs from the uninterrupted run's $a/$f"
+    fi
+  done
+}
+
+# The table without its last column (seconds, a run time).
+figures() {
+  sed 's/,[^,]*$//' "$1"
+}
+
+case $case_name in
+
+reconstruct_killed)
+  scene=$src/tests/data/reconstruct/tiny.json
+  args="$scene --threads 1 --iterations 200 --quiet"
+  "$bin/hetinv-reconstruct" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
+  "$bin/hetinv-reconstruct" $args -o "$work/run" >"$work/a.out" 2>&1 &
+  kill_when "$work/run/checkpoint.bin" $!
+  "$bin/hetinv-reconstruct" $args -o "$work/run" --resume >"$work/b.out" 2>&1 || fail "the --resume run failed"
+  same "$work/ref" "$work/run" recovered_sigma_a.vol recovered_sigma_s.vol recovered_g.vol loss.csv errors.csv \
+    maps.exr measurements.exr bound.exr
+  ;;
+
+fig4_killed)
+  # Two volumes: a rerun reads the first cell back from its cell.csv and
+  # resumes the second from its checkpoint; the table of stored figures
+  # must be the one the uninterrupted run printed.
+  args="--grid 2 --volumes 2 --iterations 300 --photons 20 --configs 2 --threads 1 --quiet"
+  "$bin/hetinv-fig4" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
+  "$bin/hetinv-fig4" $args -o "$work/run" >"$work/a.out" 2>&1 &
+  kill_when "$work/run/config2_volume2/checkpoint.bin" $!
+  "$bin/hetinv-fig4" $args -o "$work/run" >"$work/b.out" 2>&1 || fail "the rerun failed"
+  for v in 1 2; do
+    same "$work/ref/config2_volume$v" "$work/run/config2_volume$v" recovered_sigma_a.vol recovered_sigma_s.vol \
+      recovered_g.vol loss.csv errors.csv maps.exr
+  done
+  figures "$work/ref/fig4_table.csv" >"$work/ref_table"
+  figures "$work/run/fig4_table.csv" >"$work/run_table"
+  if ! cmp -s "$work/ref_table" "$work/run_table"; then
+    fail "the rerun's fig4_table.csv differs from the uninterrupted run's:"
+    diff "$work/ref_table" "$work/run_table" | sed 's/^/  | /'
+  fi
+  # A third run reads every cell back: the same table again.
+  "$bin/hetinv-fig4" $args -o "$work/run" >"$work/c.out" 2>&1 || fail "the third run failed"
+  figures "$work/run/fig4_table.csv" >"$work/run_table"
+  cmp -s "$work/ref_table" "$work/run_table" || fail "a table of stored cells differs from the uninterrupted run's"
+  ;;
+
+*)
+  echo "unknown case '$case_name'"
+  exit 2
+  ;;
+esac
+
+if [ "$failures" -gt 0 ]; then
+  echo "$case_name: $failures failure(s)"
+  exit 1
+fi
+echo "$case_name: passed"
+exit 0
