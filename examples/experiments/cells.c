@@ -325,45 +325,58 @@ int experiment_bound_store(const char *dir, const char *key, const experiment_bo
 
 /* from/name into dir/name, written whole and renamed (recon_text_begin:
  * the bytes of any file). A missing source is no error: a bound's maps
- * are optional. */
-static int copy_into(const char *dir, const char *from, const char *name) {
+ * are optional. -1 with a message in why naming the file that failed, the
+ * source or the copy, and the reason (errno's, not a generic one: a full
+ * disk or a file size limit is what the user needs to know). */
+static int copy_into(const char *dir, const char *from, const char *name, char *why, size_t why_size) {
   char src[1200], dst[1200], tmp[1220];
   snprintf(src, sizeof src, "%s/%s", from, name);
   snprintf(dst, sizeof dst, "%s/%s", dir, name);
   FILE *in = fopen(src, "rb");
-  if (in == NULL) return errno == ENOENT ? 0 : -1;
+  if (in == NULL && errno == ENOENT) return 0;
+  if (in == NULL) {
+    snprintf(why, why_size, "%s: %s", src, strerror(errno));
+    return -1;
+  }
   FILE *out = recon_text_begin(dst, tmp, sizeof tmp);
   if (out == NULL) {
+    snprintf(why, why_size, "%s: %s (copying %s)", dst, strerror(errno), src);
     fclose(in);
     return -1;
   }
   char buf[65536];
   size_t n;
-  bool ok = true;
-  while (ok && (n = fread(buf, 1, sizeof buf, in)) > 0) ok = fwrite(buf, 1, n, out) == n;
-  ok = ok && !ferror(in);
+  bool wrote = true;
+  errno = 0;
+  while (wrote && (n = fread(buf, 1, sizeof buf, in)) > 0) wrote = fwrite(buf, 1, n, out) == n;
+  int err = errno;
+  bool read = !ferror(in);
   fclose(in);
-  if (!ok) {
+  if (!wrote || !read) {
     fclose(out);
     remove(tmp);
-    errno = EIO;
+    snprintf(why, why_size, "%s: %s (copying %s)", read ? dst : src, strerror(err != 0 ? err : EIO), src);
     return -1;
   }
-  return recon_text_commit(out, tmp, dst);
+  if (recon_text_commit(out, tmp, dst) != 0) {
+    snprintf(why, why_size, "%s: %s (copying %s)", dst, strerror(errno), src);
+    return -1;
+  }
+  return 0;
 }
 
 int experiment_bound_adopt(const char *dir, const char *from, const char *key, experiment_bound_t *b, char *why,
                            size_t why_size) {
   int found = experiment_bound_load(from, key, b, why, why_size);
   if (found <= 0) return found;
-  static const char *const MAPS[] = {"bound.exr", "bound_sigma_a.png", "bound_sigma_s.png", "bound_g.png", "bound.csv"};
+  static const char *const MAPS[] = {"bound.exr", "bound_sigma_a.png", "bound_sigma_s.png", "bound_g.png"};
   for (size_t i = 0; i < sizeof MAPS / sizeof MAPS[0]; ++i) {
-    /* bound.csv last: once it is there, the maps it describes are too. */
-    int copied = i + 1 < sizeof MAPS / sizeof MAPS[0] ? copy_into(dir, from, MAPS[i]) : experiment_bound_store(dir, key, b);
-    if (copied != 0) {
-      snprintf(why, why_size, "%s/%s: copying it into %s: %s", from, MAPS[i], dir, strerror(errno));
-      return -1;
-    }
+    if (copy_into(dir, from, MAPS[i], why, why_size) != 0) return -1;
+  }
+  /* bound.csv last: once it is there, the maps it describes are too. */
+  if (experiment_bound_store(dir, key, b) != 0) {
+    snprintf(why, why_size, "%s/bound.csv: %s", dir, strerror(errno));
+    return -1;
   }
   return 1;
 }

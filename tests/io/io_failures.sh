@@ -8,7 +8,7 @@
 #   io_failures.sh <case> <folder of the programs> <source tree> <work folder>
 #
 # Cases (one CTest test each): unwritable, not_folder, full_disk, stdout_full,
-# text_outputs, lock, lock_link, stale_temporaries, stale_records. Exit status 0 pass, 1 fail, 77 skip
+# text_outputs, lock, lock_link, stale_temporaries, stale_records, file_size_limit. Exit status 0 pass, 1 fail, 77 skip
 # (a case the machine cannot stage: mounting a small file system, /dev/full).
 # Tests run as root, for whom permission bits do not deny writes, so an
 # unwritable folder is /proc (no files can be created there) or a read-only
@@ -388,6 +388,25 @@ stale_records)
   cmp -s "$work/bx_bound.exr" "$cell/bound.exr" ||
     fail "the rerun reused bound.csv beside bound.exr of the run under other settings"
   expect_no_temporaries "$dir"
+  ;;
+
+file_size_limit)
+  # A file size limit (ulimit -f; SIGXFSZ ignored, so writes fail with
+  # EFBIG) met while hetinv-fig4 --bound-from copies a bound's maps: the
+  # error names the copy and the reason, not a generic I/O error. The
+  # source's bound.exr is replaced by 64 KiB of other bytes (the copy does
+  # not read them), larger than stdio's buffer, so fwrite itself fails.
+  b4="--grid 2 --volumes 1 --iterations 2 --photons 20 --configs 2 --threads 1 --quiet --bound-only
+    --bound-photons 30 --bound-replicates 2"
+  run from hetinv-fig4 $b4 -o "$work/from"
+  [ "$rc" -eq 0 ] || fail "the bound to copy: exit status $rc: $(cat "$work/from.err")"
+  head -c 65536 /dev/zero >"$work/from/config2_volume1/bound.exr"
+  sh -c 'trap "" XFSZ; ulimit -f 16; exec "$@"' sh "$bin/hetinv-fig4" $b4 --bound-from "$work/from" -o "$work/to" \
+    >"$work/to.out" 2>"$work/to.err"
+  rc=$?
+  expect_failure to "hetinv-fig4: $work/to/config2_volume1/bound.exr: File too large"
+  expect_no_temporaries "$work/to"
+  [ ! -e "$work/to/config2_volume1/bound.csv" ] || fail "bound.csv written though its maps were not copied"
   ;;
 
 *)
