@@ -57,6 +57,26 @@ static int write_stage_result(progress_line_t *pl, const hetinv_progress_t *p) {
   return 1;
 }
 
+/* A checkpoint at a stage's last iteration is written before the progress
+ * callback that writes the stage's result: a run stopped between the two,
+ * or whose stage file could not be written (the run then ends with the
+ * checkpoint there), resumes past that iteration and would never write
+ * the file, yet end as if complete. Resumed exactly there (the checkpoint's
+ * iteration count is the stage's end; stage ends are fixed: recon sets no
+ * plateau rule), the optimizer's result is still that stage's hand-on, so
+ * it is written now. ends[s]: the iterations of stages 0..s. */
+static int resumed_stage_result(progress_line_t *pl, const int64_t *ends, const int64_t *lengths, int32_t count) {
+  size_t done = 0;
+  hetinv_optimizer_losses(pl->opt, &done);
+  for (int32_t s = 0; s + 1 < count; ++s) {
+    if (ends[s] != (int64_t)done) continue;
+    hetinv_progress_t p = {.size = sizeof p, .stage = s, .stage_count = count, .iteration = ends[s],
+                           .stage_iteration = lengths[s], .stage_iterations = lengths[s]};
+    return write_stage_result(pl, &p);
+  }
+  return 0;
+}
+
 static int on_progress(const hetinv_progress_t *p, void *user) {
   progress_line_t *pl = user;
   pl->elapsed = p->elapsed;
@@ -247,11 +267,17 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS) r = hetinv_medium_commit(init);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_create(ctx, im->set, init, &opt);
   if (r == HETINV_SUCCESS) r = configure(opt, sc);
+  /* Each stage's iterations and where it ends, for resumed_stage_result. */
+  int64_t lengths[HETINV_MAX_STAGES], ends[HETINV_MAX_STAGES];
+  int32_t stages = 0;
   if (r == HETINV_SUCCESS && sc->layerwise_layers > 0) {
     r = hetinv_param_map_create_identity(init, HETINV_FREE_ALL, &maps[RECON_MAX_LEVELS]);
     double h = sc->size / sc->grid[0];
     int64_t it = (int64_t)ceil(sc->coarse_fraction * (double)sc->iterations);
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_layerwise_stages(opt, maps[RECON_MAX_LEVELS], h, sc->layerwise_layers, (int32_t)it);
+    for (int32_t l = 0; r == HETINV_SUCCESS && l < sc->layerwise_layers && stages < HETINV_MAX_STAGES; ++l) {
+      lengths[stages++] = it;
+    }
   }
   /* Coarse to fine: each level a coarse grid (the last one the voxel grid). */
   for (int32_t l = 0; r == HETINV_SUCCESS && l < sc->level_count; ++l) {
@@ -267,7 +293,9 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
                             finest ? 0 : sc->coarse_average_window,
                             finest ? sc->settle_epsilon : 0.0, finest ? sc->settle_fraction : 0.0};
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_stage(opt, &stage);
+    if (r == HETINV_SUCCESS && stages < HETINV_MAX_STAGES) lengths[stages++] = it;
   }
+  for (int32_t i = 0; i < stages; ++i) ends[i] = (i > 0 ? ends[i - 1] : 0) + lengths[i];
   progress_line_t pl = {.quiet = quiet, .tty = isatty(2) != 0, .opt = opt, .ctx = ctx,
                         .stage_dir = sc->stage_results ? sc->output : NULL};
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_progress(opt, on_progress, &pl);
@@ -279,6 +307,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
   if (r == HETINV_SUCCESS && resuming) {
     r = hetinv_optimizer_resume(opt, checkpoint);
     if (r == HETINV_SUCCESS && !quiet) fprintf(stderr, "resuming from %s\n", checkpoint);
+    if (r == HETINV_SUCCESS && resumed_stage_result(&pl, ends, lengths, stages) != 0) r = HETINV_ERROR_IO;
   }
   if (r == HETINV_SUCCESS) r = hetinv_estimator_create(ctx, &est);
   if (r == HETINV_SUCCESS) r = recon_estimator_configure(est, sc);
@@ -288,7 +317,7 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
    * every rank's failure before them, or the others would wait for it. */
   r = hetinv_context_agree(ctx, r);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_run(opt, est, &why);
-  bool stage_failed = r == HETINV_SUCCESS && pl.failure[0] != '\0';
+  bool stage_failed = pl.failure[0] != '\0'; /* in the run, or on resuming (resumed_stage_result) */
   if (stage_failed) r = HETINV_ERROR_IO;
   r = hetinv_context_agree(ctx, r);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_result(opt, out);

@@ -5,7 +5,8 @@
 #
 #   interrupted.sh <case> <folder of the programs> <source tree> <work folder>
 #
-# Cases (one CTest test each): reconstruct_killed, fig4_killed. Exit status
+# Cases (one CTest test each): reconstruct_killed, fig4_killed,
+# stage_results_resumed. Exit status
 # 0 pass, 1 fail. The kill comes once a checkpoint exists (the run is then
 # mid-way); on a machine fast enough to finish first, the rerun still has
 # to give the same results.
@@ -91,6 +92,25 @@ fig4_killed)
   "$bin/hetinv-fig4" $args -o "$work/run" >"$work/c.out" 2>&1 || fail "the third run failed"
   figures "$work/run/fig4_table.csv" >"$work/run_table"
   cmp -s "$work/ref_table" "$work/run_table" || fail "a table of stored cells differs from the uninterrupted run's"
+  ;;
+
+stage_results_resumed)
+  # optimizer.stage_results: stage 1 of 20 iterations ends at iteration
+  # 10, where a checkpoint is written before the stage's files are. Their
+  # write fails (a folder in the place of stage1_g.vol; a kill there does
+  # the same), the run stops with the checkpoint at that iteration; the
+  # --resume run must write the stage's files, the uninterrupted run's bytes.
+  scene=$src/tests/data/reconstruct/tiny_stage_results.json
+  args="$scene --threads 1 --iterations 20 --quiet --no-bound"
+  "$bin/hetinv-reconstruct" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
+  mkdir -p "$work/run/stage1_g.vol/in-the-way"
+  if "$bin/hetinv-reconstruct" $args -o "$work/run" >"$work/a.out" 2>&1; then
+    fail "the run with stage1_g.vol unwritable succeeded"
+  fi
+  rm -r "$work/run/stage1_g.vol"
+  "$bin/hetinv-reconstruct" $args -o "$work/run" --resume >"$work/b.out" 2>&1 || fail "the --resume run failed"
+  same "$work/ref" "$work/run" stage1_sigma_a.vol stage1_sigma_s.vol stage1_g.vol recovered_sigma_a.vol \
+    recovered_g.vol
   ;;
 
 *)
