@@ -12,7 +12,7 @@
  *               [--source-stride N] [--smoothness L] [--multiscale A] [--box-margin M]
  *               [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]
  *               [--bound-replicates N] [--bound-spacing S] [--recovered DIR]
- *               [--quiet] [--write-scene]
+ *               [--quiet] [--write-scene] [--resume]
  *
  * --bound computes, after the recovery, what the data allow at the truth:
  * at 16³ (12 288 unknowns, past the dense Fisher matrix's 2048) the local
@@ -79,7 +79,7 @@ static void print_usage(FILE *f) {
           "                   [--source-stride N] [--smoothness L] [--multiscale A] [--box-margin M]\n"
           "                   [--coordinates native|reduced|log|log-reduced|log-mean-ratio] [--truth-seed S] [--bound | --bound-only] [--bound-photons N]\n"
           "                   [--bound-replicates N] [--bound-spacing S] [--recovered DIR]\n"
-          "                   [--quiet] [--write-scene]\n"
+          "                   [--quiet] [--write-scene] [--resume]\n"
           "Fig. 5: recover a smoke volume (eta = 1) from frontlit, sidelit and backlit\n"
           "pathlength-resolved measurements, then render truth and recovery under a\n"
           "novel view and light.\n"
@@ -121,6 +121,8 @@ static void print_usage(FILE *f) {
           "                  (repeatable, up to 16)\n"
           "  --truth-seed S  another smoke volume (default 5, the figure's)\n"
           "  --quiet         no progress line\n"
+          "  --resume        continue an interrupted run from DIR/checkpoint.bin (refused,\n"
+          "                  naming what differs, if the settings are not that run's)\n"
           "  --write-scene   write the set-up as a render scene, the truth and a\n"
           "                  reconstruction scene from the rendered files, and stop\n",
           FULL_GRID, REDUCED_GRID, VIEW_PHOTON_FACTOR);
@@ -330,7 +332,7 @@ static hetinv_result_t novel_view_render(hetinv_context_t *ctx, const recon_scen
 /* Simulates the acquisition, recovers the volume, writes and prints the
  * errors and the novel view; 0 or 1. */
 static int recover(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_medium_t *truth,
-                   recon_imaging_t *im, bool quiet, double t0) {
+                   recon_imaging_t *im, bool resume, bool quiet, double t0) {
   int status = 0;
   char path[1200], msg[1024];
   hetinv_medium_t *rec = NULL;
@@ -342,7 +344,7 @@ static int recover(hetinv_context_t *ctx, const recon_scene_t *sc, const hetinv_
     if (status == 0 && !quiet) printf("simulated the measurements in %.1f s: %s\n", recon_now() - t0, path);
   }
   double seconds = 0.0;
-  if (status == 0 && recon_solve(ctx, sc, im, false, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
+  if (status == 0 && recon_solve(ctx, sc, im, resume, quiet, &rec, &seconds, msg, sizeof msg) != HETINV_SUCCESS) {
     fprintf(stderr, PROG ": %s\n", msg);
     status = 1;
   }
@@ -520,6 +522,7 @@ static int bound_at_truth(hetinv_context_t *ctx, const recon_scene_t *sc, const 
 
 int main(int argc, char **argv) {
   bool full = false, quiet = false, write_scene = false, cameras = false, bound = false, bound_only = false;
+  bool resume = false;
   const char *out_dir = NULL, *rec_dirs[MAX_RECOVERED];
   int rec_count = 0;
   int64_t bound_photons = -1, bound_replicates = 4, bound_spacing = 3;
@@ -534,6 +537,8 @@ int main(int argc, char **argv) {
       full = true;
     } else if (strcmp(a, "--quiet") == 0) {
       quiet = true;
+    } else if (strcmp(a, "--resume") == 0) {
+      resume = true;
     } else if (strcmp(a, "--write-scene") == 0) {
       write_scene = true;
     } else if (strcmp(a, "--bound") == 0) {
@@ -676,7 +681,7 @@ int main(int argc, char **argv) {
     }
   }
   if (status == 0 && rec_count > 0) status = check_recovered(ctx, sc.grid, rec_dirs, rec_count);
-  if (status == 0 && !write_scene && !bound_only) status = recover(ctx, &sc, truth, &im, quiet, t0);
+  if (status == 0 && !write_scene && !bound_only) status = recover(ctx, &sc, truth, &im, resume, quiet, t0);
   if (status == 0 && (bound || bound_only)) {
     status = bound_at_truth(ctx, &sc, truth, &im, bound_photons > 0 ? bound_photons : sc.photons,
                             (int32_t)bound_replicates, bound ? (const char *const[]){sc.output} : rec_dirs,

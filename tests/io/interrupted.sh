@@ -6,7 +6,7 @@
 #   interrupted.sh <case> <folder of the programs> <source tree> <work folder>
 #
 # Cases (one CTest test each): reconstruct_killed, fig4_killed,
-# stage_results_resumed. Exit status
+# fig5_killed (--resume), stage_results_resumed. Exit status
 # 0 pass, 1 fail. The kill comes once a checkpoint exists (the run is then
 # mid-way); on a machine fast enough to finish first, the rerun still has
 # to give the same results.
@@ -92,6 +92,15 @@ fig4_killed)
   "$bin/hetinv-fig4" $args -o "$work/run" >"$work/c.out" 2>&1 || fail "the third run failed"
   figures "$work/run/fig4_table.csv" >"$work/run_table"
   cmp -s "$work/ref_table" "$work/run_table" || fail "a table of stored cells differs from the uninterrupted run's"
+  ;;
+
+fig5_killed)
+  args="--grid 3 --iterations 300 --photons 50 --threads 1 --quiet"
+  "$bin/hetinv-fig5" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
+  "$bin/hetinv-fig5" $args -o "$work/run" >"$work/a.out" 2>&1 &
+  kill_when "$work/run/checkpoint.bin" $!
+  "$bin/hetinv-fig5" $args -o "$work/run" --resume >"$work/b.out" 2>&1 || fail "the --resume run failed"
+  same "$work/ref" "$work/run" recovered_sigma_a.vol recovered_sigma_s.vol recovered_g.vol loss.csv errors.csv
   ;;
 
 stage_results_resumed)
