@@ -216,6 +216,7 @@
 #include "fit_check.h"
 #include "gradient_check.h"
 #include "polish.h"
+#include "interrupted.h"
 #include "outdir.h"
 #include "recon.h"
 #include "verdict.h"
@@ -589,6 +590,8 @@ int main(int argc, char **argv) {
    * (released by the kernel however the process ends). */
   outdir_t dir;
   if (outdir_open(&dir, "hetinv-fig4", o.out) != 0) return 1;
+  interrupted_hint("hetinv-fig4: stopped; the same command continues: finished cells are read back, the "
+                   "interrupted one resumes from its checkpoint");
   double table_mean[5][3] = {{0}}, table_max[5][3] = {{0}}, seconds[5] = {0};
   double bound_mean[5][3] = {{0}}, bound_max[5][3] = {{0}}, bound_seconds[5] = {0};
   int bound_pd[5] = {0}, bound_local[5] = {-1, -1, -1, -1, -1}; /* the smallest local radius */

@@ -59,6 +59,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "interrupted.h"
 #include "outdir.h"
 #include "recon.h"
 #include "verdict.h"
@@ -643,6 +644,10 @@ int main(int argc, char **argv) {
    * (released by the kernel however the process ends). */
   outdir_t dir;
   if (outdir_open(&dir, PROG, sc.output) != 0) return 1;
+  char hint[1200];
+  snprintf(hint, sizeof hint, PROG ": stopped; the same command with --resume continues from the last "
+           "checkpoint, %s/checkpoint.bin, if the run wrote one", sc.output);
+  interrupted_hint(hint);
 
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.seed = sc.seed;

@@ -50,6 +50,7 @@
 
 #include "fit_check.h"
 #include "gradient_check.h"
+#include "interrupted.h"
 #include "outdir.h"
 #include "recon.h"
 
@@ -250,6 +251,12 @@ static int run(int argc, char **argv, outdir_t *dir) {
    * (a --resume run takes it again once the interrupted one is gone). */
   int opened = world_rank() == 0 ? outdir_open(dir, "hetinv-reconstruct", sc.output) : 0;
   if (rank0_status(opened) != 0) return 1;
+  if (world_rank() == 0) {
+    char hint[1200];
+    snprintf(hint, sizeof hint, "hetinv-reconstruct: stopped; the same command with --resume continues from the "
+             "last checkpoint, %s/checkpoint.bin, if the run wrote one", sc.output);
+    interrupted_hint(hint);
+  }
 
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.seed = sc.seed;

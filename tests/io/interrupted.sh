@@ -6,7 +6,7 @@
 #   interrupted.sh <case> <folder of the programs> <source tree> <work folder>
 #
 # Cases (one CTest test each): reconstruct_killed, fig4_killed,
-# fig5_killed (--resume), stage_results_resumed. Exit status
+# fig5_killed (--resume), stage_results_resumed, stop_hint (SIGTERM's line). Exit status
 # 0 pass, 1 fail. The kill comes once a checkpoint exists (the run is then
 # mid-way); on a machine fast enough to finish first, the rerun still has
 # to give the same results.
@@ -92,6 +92,28 @@ fig4_killed)
   "$bin/hetinv-fig4" $args -o "$work/run" >"$work/c.out" 2>&1 || fail "the third run failed"
   figures "$work/run/fig4_table.csv" >"$work/run_table"
   cmp -s "$work/ref_table" "$work/run_table" || fail "a table of stored cells differs from the uninterrupted run's"
+  ;;
+
+stop_hint)
+  # SIGTERM (a batch system's stop; SIGINT, Ctrl-C, alike, but a background
+  # job of this shell ignores it): the run ends by the signal, after a line
+  # saying how to continue.
+  scene=$src/tests/data/reconstruct/tiny.json
+  args="$scene --threads 1 --iterations 600 --quiet --no-bound"
+  "$bin/hetinv-reconstruct" $args -o "$work/run" >"$work/a.out" 2>"$work/a.err" &
+  pid=$!
+  i=0
+  while [ ! -e "$work/run/checkpoint.bin" ] && kill -0 $pid 2>/dev/null && [ $i -lt 3000 ]; do
+    sleep 0.01
+    i=$((i + 1))
+  done
+  kill -TERM $pid
+  wait $pid
+  rc=$?
+  [ $rc -eq 143 ] || fail "exit status $rc after SIGTERM, not 143 (ended by the signal)"
+  grep -q "^hetinv-reconstruct: stopped; the same command with --resume continues from the last checkpoint, \
+$work/run/checkpoint.bin" "$work/a.err" || { fail "no hint on stderr:"; sed 's/^/  | /' "$work/a.err"; }
+  "$bin/hetinv-reconstruct" $args -o "$work/run" --resume >"$work/b.out" 2>&1 || fail "the --resume run failed"
   ;;
 
 fig5_killed)
