@@ -60,7 +60,7 @@ case $case_name in
 
 reconstruct_killed)
   scene=$src/tests/data/reconstruct/tiny.json
-  args="$scene --threads 1 --iterations 200 --quiet"
+  args="$scene --threads 1 --iterations 80 --quiet"
   "$bin/hetinv-reconstruct" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
   "$bin/hetinv-reconstruct" $args -o "$work/run" >"$work/a.out" 2>&1 &
   kill_when "$work/run/checkpoint.bin" $!
@@ -73,7 +73,7 @@ fig4_killed)
   # Two volumes: a rerun reads the first cell back from its cell.csv and
   # resumes the second from its checkpoint; the table of stored figures
   # must be the one the uninterrupted run printed.
-  args="--grid 2 --volumes 2 --iterations 300 --photons 20 --configs 2 --threads 1 --quiet"
+  args="--grid 2 --volumes 2 --iterations 100 --photons 20 --configs 2 --threads 1 --quiet"
   "$bin/hetinv-fig4" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
   "$bin/hetinv-fig4" $args -o "$work/run" >"$work/a.out" 2>&1 &
   kill_when "$work/run/config2_volume2/checkpoint.bin" $!
@@ -99,7 +99,7 @@ stop_hint)
   # job of this shell ignores it): the run ends by the signal, after a line
   # saying how to continue.
   scene=$src/tests/data/reconstruct/tiny.json
-  args="$scene --threads 1 --iterations 600 --quiet --no-bound"
+  args="$scene --threads 1 --iterations 300 --quiet --no-bound"
   "$bin/hetinv-reconstruct" $args -o "$work/run" >"$work/a.out" 2>"$work/a.err" &
   pid=$!
   i=0
@@ -117,7 +117,7 @@ $work/run/checkpoint.bin" "$work/a.err" || { fail "no hint on stderr:"; sed 's/^
   ;;
 
 fig5_killed)
-  args="--grid 3 --iterations 300 --photons 50 --threads 1 --quiet"
+  args="--grid 3 --iterations 100 --photons 50 --threads 1 --quiet"
   "$bin/hetinv-fig5" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
   "$bin/hetinv-fig5" $args -o "$work/run" >"$work/a.out" 2>&1 &
   kill_when "$work/run/checkpoint.bin" $!
