@@ -35,7 +35,7 @@ void recon_scene_builtin(recon_scene_t *sc) {
   /* A smoothness prior of weight 1500 (HETINV_OPTIMIZER_SMOOTHNESS): each
    * miss of this scene was g split between neighbours at 2–3 times their
    * bound. Chosen on seeds 2–21 (20 of 20 pass against 15 without, 300
-   * passed 18). On the unseen seeds 22–101 74 of 80 pass, 74 without
+   * passed 18). On the unseen seeds 22–111 84 of 90 pass, 83 without
    * it; all but one miss are its own bias on a steep field (g; once σa),
    * and seeds 62–71 and 92–101 pass 7 and 8 of 10 (docs/results/seeds.md).
    * Only here: a weight is in the loss's units and does not carry over to
