@@ -73,7 +73,7 @@ fig4_killed)
   # Two volumes: a rerun reads the first cell back from its cell.csv and
   # resumes the second from its checkpoint; the table of stored figures
   # must be the one the uninterrupted run printed.
-  args="--grid 2 --volumes 2 --iterations 60 --photons 20 --configs 2 --threads 1 --quiet"
+  args="--grid 2 --volumes 2 --iterations 60 --photons 20 --truth-photons 2000 --configs 2 --threads 1 --quiet"
   "$bin/hetinv-fig4" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
   "$bin/hetinv-fig4" $args -o "$work/run" >"$work/a.out" 2>&1 &
   kill_when "$work/run/config2_volume2/checkpoint.bin" $!
@@ -117,7 +117,7 @@ $work/run/checkpoint.bin" "$work/a.err" || { fail "no hint on stderr:"; sed 's/^
   ;;
 
 fig5_killed)
-  args="--grid 2 --iterations 100 --photons 50 --threads 1 --quiet"
+  args="--grid 2 --iterations 100 --photons 20 --threads 1 --quiet"
   "$bin/hetinv-fig5" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
   "$bin/hetinv-fig5" $args -o "$work/run" >"$work/a.out" 2>&1 &
   kill_when "$work/run/checkpoint.bin" $!
