@@ -15,7 +15,7 @@
  *
  * Temporaries: every output file is written as "<name>.hetinv-tmp-XXXXXX"
  * (six letters or digits: the library's atomic writer, and
- * recon_text_begin) and renamed over <name> once complete; a process
+ * text_file_begin) and renamed over <name> once complete; a process
  * killed in between leaves that file behind. Once the folder is locked no
  * other run of ours writes there, so every regular file of that pattern is
  * such a leftover: outdir_open and outdir_prepare remove them. The tag

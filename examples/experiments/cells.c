@@ -220,7 +220,7 @@ int experiment_cell_load(const char *dir, const char *key, experiment_cell_t *ce
 int experiment_cell_store(const char *dir, const char *key, const experiment_cell_t *cell) {
   char path[1200], tmp[1220];
   snprintf(path, sizeof path, "%s/cell.csv", dir);
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *f = text_file_begin(path, tmp, sizeof tmp);
   if (f == NULL) return -1;
   fprintf(f, "key,%s\nparam,mean,max\n", key);
   /* %.17g: read back, the figures are the computed doubles, so a table of
@@ -228,7 +228,7 @@ int experiment_cell_store(const char *dir, const char *key, const experiment_cel
    * rounded twice, moved a last printed digit). */
   for (int p = 0; p < 3; ++p) fprintf(f, "%s,%.17g,%.17g\n", NAMES[p], cell->errors.mean[p], cell->errors.max[p]);
   fprintf(f, "seconds,%.3f\n", cell->seconds);
-  return recon_text_commit(f, tmp, path);
+  return text_file_commit(f, tmp, path);
 }
 
 int experiment_record_drop(const char *dir, const char *record, char *why, size_t why_size) {
@@ -311,7 +311,7 @@ int experiment_bound_load(const char *dir, const char *key, experiment_bound_t *
 int experiment_bound_store(const char *dir, const char *key, const experiment_bound_t *b) {
   char path[1200], tmp[1220];
   snprintf(path, sizeof path, "%s/bound.csv", dir);
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *f = text_file_begin(path, tmp, sizeof tmp);
   if (f == NULL) return -1;
   fprintf(f, "key,%s\nparam,mean,median,max,lower_mean,local_mean,local_max\n", key);
   for (int p = 0; p < 3; ++p) { /* %.17g: as experiment_cell_store */
@@ -320,10 +320,10 @@ int experiment_bound_store(const char *dir, const char *key, const experiment_bo
   }
   fprintf(f, "positive_definite,%d\nlocal_radius,%d\nseconds,%.3f\n", (int)b->positive_definite,
           (int)b->local_radius, b->seconds);
-  return recon_text_commit(f, tmp, path);
+  return text_file_commit(f, tmp, path);
 }
 
-/* from/name into dir/name, written whole and renamed (recon_text_begin:
+/* from/name into dir/name, written whole and renamed (text_file_begin:
  * the bytes of any file). A missing source is no error: a bound's maps
  * are optional. -1 with a message in why naming the file that failed, the
  * source or the copy, and the reason (errno's, not a generic one: a full
@@ -338,7 +338,7 @@ static int copy_into(const char *dir, const char *from, const char *name, char *
     snprintf(why, why_size, "%s: %s", src, strerror(errno));
     return -1;
   }
-  FILE *out = recon_text_begin(dst, tmp, sizeof tmp);
+  FILE *out = text_file_begin(dst, tmp, sizeof tmp);
   if (out == NULL) {
     snprintf(why, why_size, "%s: %s (copying %s)", dst, strerror(errno), src);
     fclose(in);
@@ -358,7 +358,7 @@ static int copy_into(const char *dir, const char *from, const char *name, char *
     snprintf(why, why_size, "%s: %s (copying %s)", read ? dst : src, strerror(err != 0 ? err : EIO), src);
     return -1;
   }
-  if (recon_text_commit(out, tmp, dst) != 0) {
+  if (text_file_commit(out, tmp, dst) != 0) {
     snprintf(why, why_size, "%s: %s (copying %s)", dst, strerror(errno), src);
     return -1;
   }

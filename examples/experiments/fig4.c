@@ -218,6 +218,7 @@
 #include "polish.h"
 #include "interrupted.h"
 #include "outdir.h"
+#include "runrecord.h"
 #include "recon.h"
 #include "verdict.h"
 
@@ -582,16 +583,8 @@ static int stored_bound(const recon_scene_t *sc, int64_t threads, int64_t photon
   return 0;
 }
 
-int main(int argc, char **argv) {
-  fig4_options_t o;
-  int parsed = fig4_options_parse(argc, argv, &o);
-  if (parsed != 0) return parsed == 1 ? 0 : 2;
-  /* Before any simulation: a folder we can write, locked for this run
-   * (released by the kernel however the process ends). */
-  outdir_t dir;
-  if (outdir_open(&dir, "hetinv-fig4", o.out) != 0) return 1;
-  interrupted_hint("hetinv-fig4: stopped; the same command continues: finished cells are read back, the "
-                   "interrupted one resumes from its checkpoint");
+/* The cells and the tables: 0, or 1 after a message. */
+static int run(const fig4_options_t *o) {
   double table_mean[5][3] = {{0}}, table_max[5][3] = {{0}}, seconds[5] = {0};
   double bound_mean[5][3] = {{0}}, bound_max[5][3] = {{0}}, bound_seconds[5] = {0};
   int bound_pd[5] = {0}, bound_local[5] = {-1, -1, -1, -1, -1}; /* the smallest local radius */
@@ -600,25 +593,25 @@ int main(int argc, char **argv) {
   bool verdict_ok[5] = {false, true, true, true, true};
   double t_all = recon_now();
   for (int c = 1; c <= 4; ++c) {
-    if (!o.configs[c]) continue;
-    for (int64_t v = o.first_volume; v < o.first_volume + o.volumes; ++v) {
+    if (!o->configs[c]) continue;
+    for (int64_t v = o->first_volume; v < o->first_volume + o->volumes; ++v) {
       recon_scene_t sc;
-      make_scene(&sc, &o, c, (int)v);
+      make_scene(&sc, o, c, (int)v);
       char msg[512];
       if (recon_scene_check(&sc, msg, sizeof msg) < 0) {
         fprintf(stderr, "hetinv-fig4: %s\n", msg);
         return 1;
       }
       if (outdir_prepare("hetinv-fig4", sc.output) != 0) return 1;
-      if (o.write_scenes) {
+      if (o->write_scenes) {
         if (write_cell_scene(&sc) != 0) return 1;
         continue;
       }
       bool local_bound = false; /* this cell's bound is the local one */
-      if (o.bound || o.bound_only) {
+      if (o->bound || o->bound_only) {
         experiment_bound_t b;
-        if (stored_bound(&sc, o.threads, o.bound_photons > 0 ? o.bound_photons : sc.photons, (int32_t)o.bound_replicates,
-                         o.quiet, o.bound_from, &b) != 0) {
+        if (stored_bound(&sc, o->threads, o->bound_photons > 0 ? o->bound_photons : sc.photons, (int32_t)o->bound_replicates,
+                         o->quiet, o->bound_from, &b) != 0) {
           return 1;
         }
         /* Where F̂ is not positive definite, the local bound stands in
@@ -628,12 +621,12 @@ int main(int argc, char **argv) {
         if (local && (bound_local[c] < 0 || b.local_radius < bound_local[c])) bound_local[c] = b.local_radius;
         for (int p = 0; p < 3; ++p) {
           double mean = local ? b.local_mean[p] : b.mean[p], max = local ? b.local_max[p] : b.max[p];
-          bound_mean[c][p] += mean / (double)o.volumes;
+          bound_mean[c][p] += mean / (double)o->volumes;
           if (!(max <= bound_max[c][p])) bound_max[c][p] = max; /* NaN propagates */
         }
         bound_seconds[c] += b.seconds;
         bound_pd[c] += b.positive_definite;
-        if (o.bound_only) continue;
+        if (o->bound_only) continue;
       }
       char key[EXPERIMENT_KEY_SIZE], why[1600];
       if (!experiment_cell_key(&sc, key, sizeof key)) {
@@ -652,50 +645,67 @@ int main(int argc, char **argv) {
         fprintf(stderr, "hetinv-fig4: %s\n", why);
         return 1;
       }
-      if (!reused && run_cell(&sc, o.threads, o.quiet, &cell) != 0) return 1;
+      if (!reused && run_cell(&sc, o->threads, o->quiet, &cell) != 0) return 1;
       if (!reused && experiment_cell_store(sc.output, key, &cell) != 0) {
         fprintf(stderr, "hetinv-fig4: %s/cell.csv: %s\n", sc.output, strerror(errno));
         return 1;
       }
       if (!reused) drop_checkpoint(sc.output);
       for (int p = 0; p < 3; ++p) {
-        table_mean[c][p] += cell.errors.mean[p] / (double)o.volumes;
+        table_mean[c][p] += cell.errors.mean[p] / (double)o->volumes;
         if (cell.errors.max[p] > table_max[c][p]) table_max[c][p] = cell.errors.max[p];
       }
       seconds[c] += cell.seconds;
-      if (!o.quiet) {
+      if (!o->quiet) {
         const recon_errors_t *e = &cell.errors;
         printf("%s: mean/max relative error: sigma_a %.1f/%.1f %%, sigma_s %.1f/%.1f %%, g %.1f/%.1f %% (%.0f s%s)\n",
                sc.name, 100 * e->mean[0], 100 * e->max[0], 100 * e->mean[1], 100 * e->max[1], 100 * e->mean[2],
                100 * e->max[2], cell.seconds, reused ? ", stored by an earlier run" : "");
         fflush(stdout);
       }
-      if (o.bound && verdict_ok[c] && experiment_verdict_add(sc.output, local_bound, &verdict[c], msg, sizeof msg) != 0) {
+      if (o->bound && verdict_ok[c] && experiment_verdict_add(sc.output, local_bound, &verdict[c], msg, sizeof msg) != 0) {
         fprintf(stderr, "hetinv-fig4: %s: no per-voxel target check for this configuration: %s\n", sc.name, msg);
         verdict_ok[c] = false;
       }
-      if (o.fit && print_fit_check(&sc, o.threads, o.fit_photons, (int32_t)o.fit_replicates) != 0) return 1;
-      if (o.polish_replicates > 0 && print_polish(&sc, &o) != 0) return 1;
-      if (o.gradient_replicates > 0 && print_gradient_check(&sc, o.threads, (int32_t)o.gradient_replicates) != 0) {
+      if (o->fit && print_fit_check(&sc, o->threads, o->fit_photons, (int32_t)o->fit_replicates) != 0) return 1;
+      if (o->polish_replicates > 0 && print_polish(&sc, o) != 0) return 1;
+      if (o->gradient_replicates > 0 && print_gradient_check(&sc, o->threads, (int32_t)o->gradient_replicates) != 0) {
         return 1;
       }
     }
   }
-  if (o.write_scenes) {
-    int status = outdir_finish_stdout("hetinv-fig4") != 0;
-    outdir_close(&dir);
-    return status;
-  }
+  if (o->write_scenes) return 0;
   int status = 0;
-  if (!o.bound_only) status = error_table(o.out, o.full, o.volumes, o.configs, table_mean, table_max, seconds);
-  if ((o.bound || o.bound_only) &&
-      bound_table(o.out, o.volumes, o.configs, bound_mean, bound_max, bound_pd, bound_local, bound_seconds,
-                  o.bound_only ? NULL : table_mean) != 0) {
+  if (!o->bound_only) status = error_table(o->out, o->full, o->volumes, o->configs, table_mean, table_max, seconds);
+  if ((o->bound || o->bound_only) &&
+      bound_table(o->out, o->volumes, o->configs, bound_mean, bound_max, bound_pd, bound_local, bound_seconds,
+                  o->bound_only ? NULL : table_mean) != 0) {
     status = 1;
   }
-  if (o.bound && target_table(o.out, o.configs, verdict_ok, table_mean, bound_mean, verdict) != 0) status = 1;
+  if (o->bound && target_table(o->out, o->configs, verdict_ok, table_mean, bound_mean, verdict) != 0) status = 1;
   if (status == 0) printf("total %.0f s\n", recon_now() - t_all);
+  return status;
+}
+
+int main(int argc, char **argv) {
+  fig4_options_t o;
+  int parsed = fig4_options_parse(argc, argv, &o);
+  if (parsed != 0) return parsed == 1 ? 0 : 2;
+  /* Before any simulation: a folder we can write, locked for this run
+   * (released by the kernel however the process ends). The same command
+   * continues an interrupted run, so the record always resumes. */
+  outdir_t dir;
+  if (outdir_open(&dir, "hetinv-fig4", o.out) != 0) return 1;
+  run_record_t record;
+  if (run_record_begin(&record, "hetinv-fig4", o.out, argc, argv, true) != 0) {
+    outdir_close(&dir);
+    return 1;
+  }
+  interrupted_hint("hetinv-fig4: stopped; the same command continues: finished cells are read back, the "
+                   "interrupted one resumes from its checkpoint");
+  int status = run(&o);
   if (outdir_finish_stdout("hetinv-fig4") != 0) status = 1;
+  status = run_record_end(&record, status);
   outdir_close(&dir);
   return status;
 }

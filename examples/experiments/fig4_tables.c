@@ -18,7 +18,7 @@ int error_table(const char *out, bool full, int64_t volumes, const bool configs[
   char path[1200];
   snprintf(path, sizeof path, "%s/fig4_table.csv", out);
   char tmp[1220];
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *f = text_file_begin(path, tmp, sizeof tmp);
   printf("\nFig. 4 (%s): relative error over %lld volume(s), mean over volumes of the voxel mean / max over volumes of the voxel max\n",
          full ? "full size" : "reduced", (long long)volumes);
   printf("%-30s %15s %15s %15s %9s\n", "configuration", "sigma_a", "sigma_s", "g", "seconds");
@@ -35,7 +35,7 @@ int error_table(const char *out, bool full, int64_t volumes, const bool configs[
     }
   }
   printf("paper (full size): every configuration within 7 %% mean and 15 %% max relative error\n");
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
+  if (f == NULL || text_file_commit(f, tmp, path) != 0) {
     fprintf(stderr, "hetinv-fig4: %s: %s\n", path, strerror(errno));
     return 1;
   }
@@ -51,7 +51,7 @@ int bound_table(const char *out, int64_t volumes, const bool configs[5], double 
   char path[1200];
   snprintf(path, sizeof path, "%s/fig4_bound.csv", out);
   char tmp[1220];
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *f = text_file_begin(path, tmp, sizeof tmp);
   printf("\nCramer-Rao bound at the truth: predicted relative standard deviation of an unbiased recovery,\n"
          "mean over volumes of the voxel mean / max over volumes of the voxel max%s\n",
          error_mean ? "; then achieved/bound = mean error / mean bound" : "");
@@ -80,7 +80,7 @@ int bound_table(const char *out, int64_t volumes, const bool configs[5], double 
   }
   printf("an efficient unbiased recovery has achieved/bound near 0.8 (E|N(0, s)| = 0.8 s); a local\n"
          "bound is a lower bound of the bound (the voxels outside its radius known)\n");
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
+  if (f == NULL || text_file_commit(f, tmp, path) != 0) {
     fprintf(stderr, "hetinv-fig4: %s: %s\n", path, strerror(errno));
     return 1;
   }
@@ -96,7 +96,7 @@ int target_table(const char *out, const bool configs[5], const bool have[5], dou
                  double bound_mean[5][3], const experiment_verdict_t verdict[5]) {
   char path[1200], tmp[1220];
   snprintf(path, sizeof path, "%s/fig4_target.csv", out);
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *f = text_file_begin(path, tmp, sizeof tmp);
   printf("\nTarget: mean error <= 7 %% and every voxel <= 15 %%, or within %.1fx the bound where the bound\n"
          "exceeds them; per parameter: mean met?, voxels over 15 %%, of them not within that allowance\n",
          VERDICT_BOUND_FACTOR);
@@ -157,7 +157,7 @@ int target_table(const char *out, const bool configs[5], const bool have[5], dou
       printf("\n");
     }
   }
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
+  if (f == NULL || text_file_commit(f, tmp, path) != 0) {
     fprintf(stderr, "hetinv-fig4: %s: %s\n", path, strerror(errno));
     return 1;
   }

@@ -61,6 +61,7 @@
 
 #include "interrupted.h"
 #include "outdir.h"
+#include "runrecord.h"
 #include "recon.h"
 #include "verdict.h"
 
@@ -644,6 +645,11 @@ int main(int argc, char **argv) {
    * (released by the kernel however the process ends). */
   outdir_t dir;
   if (outdir_open(&dir, PROG, sc.output) != 0) return 1;
+  run_record_t record;
+  if (run_record_begin(&record, PROG, sc.output, argc, argv, resume) != 0) {
+    outdir_close(&dir);
+    return 1;
+  }
   char hint[1200];
   snprintf(hint, sizeof hint, PROG ": stopped; the same command with --resume continues from the last "
            "checkpoint, %s/checkpoint.bin, if the run wrote one", sc.output);
@@ -654,8 +660,9 @@ int main(int argc, char **argv) {
   init.thread_count = sc.threads;
   hetinv_context_t *ctx = NULL;
   if (hetinv_context_create(&init, &ctx) != HETINV_SUCCESS) {
+    int failed = run_record_end(&record, recon_fail(PROG, NULL, "context"));
     outdir_close(&dir);
-    return recon_fail(PROG, NULL, "context");
+    return failed;
   }
   double t0 = recon_now();
   int status = 0;
@@ -696,6 +703,7 @@ int main(int argc, char **argv) {
   recon_imaging_release(&im);
   hetinv_context_destroy(&ctx);
   if (outdir_finish_stdout(PROG) != 0) status = 1;
+  status = run_record_end(&record, status);
   outdir_close(&dir);
   return status;
 }

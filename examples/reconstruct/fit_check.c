@@ -235,7 +235,7 @@ const char *fit_check_verdict(double d, double se) {
 int fit_check_store(const recon_scene_t *sc, int64_t photons, const fit_check_t *f) {
   char path[1200], tmp[1220];
   snprintf(path, sizeof path, "%s/fit_check.csv", sc->output);
-  FILE *out = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *out = text_file_begin(path, tmp, sizeof tmp);
   if (out == NULL) return -1;
   double d = f->recovery - f->truth;
   fprintf(out, "quantity,truth,recovery_minus_truth,std_error,verdict\n");
@@ -246,7 +246,7 @@ int fit_check_store(const recon_scene_t *sc, int64_t photons, const fit_check_t 
           fit_check_verdict(f->loss_difference, f->loss_difference_se));
   fprintf(out, "photons,%lld\nreplicates,%d\nloss_clip,%.9g\nseconds,%.3f\n", (long long)photons,
           (int)f->loss_replicates, sc->loss_clip, f->seconds);
-  return recon_text_commit(out, tmp, path);
+  return text_file_commit(out, tmp, path);
 }
 
 /* "no difference at this precision", or which of the two fits the data

@@ -179,7 +179,7 @@ static const char *separation_verdict(const gradient_check_t *gc) {
 static int store(const recon_scene_t *sc, const gradient_check_t *gc) {
   char path[1200], tmp[1220];
   snprintf(path, sizeof path, "%s/gradient_check.csv", sc->output);
-  FILE *out = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *out = text_file_begin(path, tmp, sizeof tmp);
   if (out == NULL) return -1;
   const gradient_summary_t *s = &gc->summary;
   fprintf(out, "param,truth_beyond_3_se,entries,missed,pulled,flat,pushed,pulled_snr_median\n");
@@ -192,7 +192,7 @@ static int store(const recon_scene_t *sc, const gradient_check_t *gc) {
           k + 2.0 * sqrt(2.0 * k), separation_verdict(gc));
   fprintf(out, "threshold,%.4g\nreplicates,%d\nphotons,%lld\nseconds,%.3f\n", s->threshold, (int)gc->replicates,
           (long long)gc->photons, gc->seconds);
-  return recon_text_commit(out, tmp, path);
+  return text_file_commit(out, tmp, path);
 }
 
 hetinv_result_t gradient_check_compare(hetinv_context_t *ctx, const recon_scene_t *sc,

@@ -52,6 +52,7 @@
 #include "gradient_check.h"
 #include "interrupted.h"
 #include "outdir.h"
+#include "runrecord.h"
 #include "recon.h"
 
 #ifdef HETINV_RECONSTRUCT_MPI
@@ -165,7 +166,7 @@ static int check_scene_options(const recon_scene_t *sc, bool bound_only, bool wr
   return 0;
 }
 
-static int run(int argc, char **argv, outdir_t *dir) {
+static int run(int argc, char **argv, outdir_t *dir, run_record_t *record) {
   recon_scene_t sc;
   recon_scene_default(&sc);
   const char *scene_path = NULL, *out_dir = NULL;
@@ -249,7 +250,11 @@ static int run(int argc, char **argv, outdir_t *dir) {
   if (photons > 0) sc.photons = photons;
   /* Before any simulation: a folder we can write, locked for this run
    * (a --resume run takes it again once the interrupted one is gone). */
-  int opened = world_rank() == 0 ? outdir_open(dir, "hetinv-reconstruct", sc.output) : 0;
+  int opened = 0;
+  if (world_rank() == 0) {
+    opened = outdir_open(dir, "hetinv-reconstruct", sc.output);
+    if (opened == 0) opened = run_record_begin(record, "hetinv-reconstruct", sc.output, argc, argv, resume);
+  }
   if (rank0_status(opened) != 0) return 1;
   if (world_rank() == 0) {
     char hint[1200];
@@ -466,8 +471,10 @@ int main(int argc, char **argv) {
   if (world_rank() != 0) recon_err_hold();
 #endif
   outdir_t dir = {-1};
-  int status = run(argc, argv, &dir);
+  run_record_t record = RUN_RECORD_INIT;
+  int status = run(argc, argv, &dir, &record);
   if (outdir_finish_stdout("hetinv-reconstruct") != 0) status = 1;
+  status = run_record_end(&record, status);
   outdir_close(&dir);
 #ifdef HETINV_RECONSTRUCT_MPI
   /* Each failure once: the lowest rank that wrote a message prints its

@@ -253,7 +253,7 @@ static double solve_residual(const double *h, const double *g, const double *del
 static int store(const recon_scene_t *sc, const polish_report_t *rep) {
   char path[1200], tmp[1220];
   snprintf(path, sizeof path, "%s/polish.csv", sc->output);
-  FILE *out = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *out = text_file_begin(path, tmp, sizeof tmp);
   if (out == NULL) return -1;
   fprintf(out, "step,loss,loss_se,prior,damping,cg_iterations,cg_negative_curvature,solve_residual,"
                "predicted_decrease,step_rms,clipped,sigma_a_mean,sigma_a_max,sigma_s_mean,sigma_s_max,g_mean,g_max\n");
@@ -267,7 +267,7 @@ static int store(const recon_scene_t *sc, const polish_report_t *rep) {
             st->loss, st->loss_se, st->prior, st->damping, (int)st->cg_iterations, st->cg_negative, st->residual, st->predicted,
             st->step_rms, st->clipped, e->mean[0], e->max[0], e->mean[1], e->max[1], e->mean[2], e->max[2]);
   }
-  return recon_text_commit(out, tmp, path);
+  return text_file_commit(out, tmp, path);
 }
 
 static hetinv_result_t polish(hetinv_context_t *ctx, const recon_scene_t *sc, stored_cell_t *cell,

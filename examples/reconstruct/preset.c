@@ -206,13 +206,13 @@ static int write_text(const char *dir, const char *file,
                       const recon_scene_t *sc, const recon_imaging_t *im, char *msg, size_t n) {
   char path[1200], tmp[1300];
   snprintf(path, sizeof path, "%s/%s", dir, file);
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *f = text_file_begin(path, tmp, sizeof tmp);
   if (f == NULL) {
     snprintf(msg, n, "%s: %s", path, strerror(errno));
     return -1;
   }
   write(f, sc, im);
-  if (recon_text_commit(f, tmp, path) != 0) {
+  if (text_file_commit(f, tmp, path) != 0) {
     snprintf(msg, n, "%s: %s", path, strerror(errno));
     return -1;
   }

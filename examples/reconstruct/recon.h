@@ -14,6 +14,8 @@
 
 #include <hetinv/hetinv.h>
 
+#include "textfile.h"
+
 /* The imaging configurations of the paper's Fig. 4 (section 6), and its
  * Fig. 5's front-, side- and back-lighting. */
 typedef enum recon_config {
@@ -368,12 +370,6 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
 hetinv_result_t recon_read_recovery(hetinv_context_t *ctx, const recon_scene_t *scene, hetinv_medium_t **out,
                                     char *msg, size_t msg_size);
 
-/* A text file written whole or not at all: recon_text_begin() creates
- * "<path>.hetinv-tmp-XXXXXX" (tmp receives that name; NULL with errno set on
- * failure), and recon_text_commit() flushes it to disk, closes it and
- * renames it over path, or removes it if anything failed (-1, errno set). */
-FILE *recon_text_begin(const char *path, char *tmp, size_t tmp_size);
-int recon_text_commit(FILE *f, const char *tmp, const char *path);
 
 /* Command-line helpers (cli.c). recon_parse_count: an integer option in
  * [lo, hi], or -1 after a message "<prog>: <opt>: '<text>' is not ...".

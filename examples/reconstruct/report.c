@@ -124,7 +124,7 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
   if (truth == NULL) return HETINV_SUCCESS; /* nothing to compare with */
   snprintf(path, sizeof path, "%s/errors.csv", dir);
   char tmp[1220];
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *f = text_file_begin(path, tmp, sizeof tmp);
   if (f != NULL) {
     fprintf(f, "parameter,mean_relative_error,max_relative_error%s\n",
             e->has_bound ? ",mean_relative_bound,achieved_over_bound,max_voxel_error_over_bound,"
@@ -138,7 +138,7 @@ hetinv_result_t recon_write_outputs(hetinv_context_t *ctx, const recon_scene_t *
       fprintf(f, "\n");
     }
   }
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
+  if (f == NULL || text_file_commit(f, tmp, path) != 0) {
     snprintf(msg, msg_size, "%s: %s", path, strerror(errno));
     return HETINV_ERROR_IO;
   }

@@ -217,12 +217,12 @@ static hetinv_result_t write_gains(const recon_scene_t *sc, const recon_imaging_
     }
   }
   snprintf(path, sizeof path, "%s/gains.csv", sc->output);
-  FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+  FILE *f = text_file_begin(path, tmp, sizeof tmp);
   if (f != NULL) {
     fprintf(f, "emitter,gain\n");
     for (size_t i = 0; i < count; ++i) fprintf(f, "%s,%.9g\n", gain_name(im, sc->gain_mode, i, buf, sizeof buf), gains[i]);
   }
-  if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
+  if (f == NULL || text_file_commit(f, tmp, path) != 0) {
     snprintf(msg, msg_size, "%s: %s", path, strerror(errno));
     return HETINV_ERROR_IO;
   }
@@ -345,12 +345,12 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
     char path[1100];
     snprintf(path, sizeof path, "%s/loss.csv", sc->output);
     char tmp[1120];
-    FILE *f = recon_text_begin(path, tmp, sizeof tmp);
+    FILE *f = text_file_begin(path, tmp, sizeof tmp);
     if (f != NULL) {
       fprintf(f, "iteration,loss\n");
       for (size_t i = 0; i < n; ++i) fprintf(f, "%zu,%.9g\n", i + 1, losses[i]);
     }
-    if (f == NULL || recon_text_commit(f, tmp, path) != 0) {
+    if (f == NULL || text_file_commit(f, tmp, path) != 0) {
       snprintf(msg, msg_size, "%s: %s", path, strerror(errno));
       r = HETINV_ERROR_IO;
     }

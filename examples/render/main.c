@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "outdir.h"
+#include "runrecord.h"
 #include "camera.h"
 #include "output.h"
 #include "scene.h"
@@ -161,6 +162,7 @@ int main(int argc, char **argv) {
   hetinv_context_t *ctx = NULL;
   hetinv_estimator_t *est = NULL;
   outdir_t dir = {-1};
+  run_record_t record = RUN_RECORD_INIT;
   double *values = NULL;
   FILE *log = opt.quiet ? NULL : (opt.totals_json ? stderr : stdout);
   char outdir[4096];
@@ -189,7 +191,10 @@ int main(int argc, char **argv) {
    * before the render (released by the kernel however the process ends). */
   int images = 0;
   for (int i = 0; i < sc.row_count; ++i) images |= sc.sensors[sc.rows[i].sensor].kind == SENSOR_ORTHOGRAPHIC;
-  if ((images || opt.write_medium) && outdir_open(&dir, "hetinv-render", outdir) != 0) goto done;
+  if (images || opt.write_medium) {
+    if (outdir_open(&dir, "hetinv-render", outdir) != 0) goto done;
+    if (run_record_begin(&record, "hetinv-render", outdir, argc, argv, false) != 0) goto done;
+  }
 
   r = hetinv_estimator_create(ctx, &est);
   if (r != HETINV_SUCCESS) {
@@ -251,6 +256,7 @@ done:
   scene_destroy(&sc);
   hetinv_context_destroy(&ctx);
   if (outdir_finish_stdout("hetinv-render") != 0) status = 1;
+  status = run_record_end(&record, status);
   outdir_close(&dir);
   return status;
 }

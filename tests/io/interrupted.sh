@@ -6,7 +6,8 @@
 #   interrupted.sh <case> <folder of the programs> <source tree> <work folder>
 #
 # Cases (one CTest test each): reconstruct_killed, fig4_killed,
-# fig5_killed (--resume), stage_results_resumed, stop_hint (SIGTERM's line). Exit status
+# fig5_killed (--resume), stage_results_resumed, stop_hint (SIGTERM's line),
+# run_record (the folder's hetinv-run.json; the killed cases check it too). Exit status
 # 0 pass, 1 fail. The kill comes once a checkpoint exists (the run is then
 # mid-way); on a machine fast enough to finish first, the rerun still has
 # to give the same results.
@@ -51,6 +52,30 @@ same() {
   done
 }
 
+# record_says <folder> <status>: its run record's status.
+record_says() {
+  if ! grep -q "\"status\":[[:space:]]*\"$2\"" "$1/hetinv-run.json" 2>/dev/null; then
+    fail "$1/hetinv-run.json does not say \"$2\":"
+    sed 's/^/  | /' "$1/hetinv-run.json" 2>&1 | head -20
+  fi
+}
+
+# record_lists <folder> <list> <name...>: names in the record's list
+# ("files" entries or "older_files"), checked by the line each sits on.
+record_lists() {
+  folder=$1
+  list=$2
+  shift 2
+  for f in "$@"; do
+    if [ "$list" = files ]; then
+      grep -q "\"name\":[[:space:]]*\"$f\"" "$folder/hetinv-run.json" || fail "the run record does not list $f as written"
+    else
+      sed -n '/"older_files"/,$p' "$folder/hetinv-run.json" | grep -q "\"$f\"" ||
+        fail "the run record does not list $f as an older file"
+    fi
+  done
+}
+
 # The table without its last column (seconds, a run time).
 figures() {
   sed 's/,[^,]*$//' "$1"
@@ -64,9 +89,15 @@ reconstruct_killed)
   "$bin/hetinv-reconstruct" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
   "$bin/hetinv-reconstruct" $args -o "$work/run" >"$work/a.out" 2>&1 &
   kill_when "$work/run/checkpoint.bin" $!
+  [ -e "$work/run/recovered_g.vol" ] || record_says "$work/run" running # killed before its end
   "$bin/hetinv-reconstruct" $args -o "$work/run" --resume >"$work/b.out" 2>&1 || fail "the --resume run failed"
   same "$work/ref" "$work/run" recovered_sigma_a.vol recovered_sigma_s.vol recovered_g.vol loss.csv errors.csv \
     maps.exr measurements.exr bound.exr
+  # The resumed run's record keeps the first part's start, so the
+  # measurements that part wrote are the run's own.
+  record_says "$work/run" complete
+  record_lists "$work/run" files measurements.exr checkpoint.bin recovered_g.vol errors.csv
+  grep -q '"resumes":[[:space:]]*1' "$work/run/hetinv-run.json" || fail "the run record does not count one resume"
   ;;
 
 fig4_killed)
@@ -77,7 +108,10 @@ fig4_killed)
   "$bin/hetinv-fig4" $args -o "$work/ref" >"$work/ref.out" 2>&1 || fail "the uninterrupted run failed"
   "$bin/hetinv-fig4" $args -o "$work/run" >"$work/a.out" 2>&1 &
   kill_when "$work/run/config2_volume2/checkpoint.bin" $!
+  [ -e "$work/run/fig4_table.csv" ] || record_says "$work/run" running
   "$bin/hetinv-fig4" $args -o "$work/run" >"$work/b.out" 2>&1 || fail "the rerun failed"
+  record_says "$work/run" complete
+  record_lists "$work/run" files config2_volume1/errors.csv config2_volume2/errors.csv fig4_table.csv
   for v in 1 2; do
     same "$work/ref/config2_volume$v" "$work/run/config2_volume$v" recovered_sigma_a.vol recovered_sigma_s.vol \
       recovered_g.vol loss.csv errors.csv maps.exr
@@ -138,10 +172,35 @@ stage_results_resumed)
   if "$bin/hetinv-reconstruct" $args -o "$work/run" >"$work/a.out" 2>&1; then
     fail "the run with stage1_g.vol unwritable succeeded"
   fi
+  record_says "$work/run" failed
   rm -r "$work/run/stage1_g.vol"
   "$bin/hetinv-reconstruct" $args -o "$work/run" --resume >"$work/b.out" 2>&1 || fail "the --resume run failed"
   same "$work/ref" "$work/run" stage1_sigma_a.vol stage1_sigma_s.vol stage1_g.vol recovered_sigma_a.vol \
     recovered_g.vol
+  ;;
+
+run_record)
+  # A render into a folder that holds the user's notes and an older
+  # result: the record lists what this run wrote apart from what it found.
+  scene=$src/examples/scenes/patterned_camera.json
+  mkdir -p "$work/run"
+  echo "the user's notes" >"$work/run/notes.txt"
+  echo "an older run's image" >"$work/run/old_row.exr"
+  touch -d '2001-01-01' "$work/run/notes.txt" "$work/run/old_row.exr"
+  "$bin/hetinv-render" "$scene" --photons 200 --threads 1 -o "$work/run" >"$work/a.out" 2>&1 || fail "the render failed"
+  record_says "$work/run" complete
+  record_lists "$work/run" files front_side.exr front_side_stderr.exr front_side.png
+  record_lists "$work/run" older_files notes.txt old_row.exr
+  grep -q '"program":[[:space:]]*"hetinv-render"' "$work/run/hetinv-run.json" || fail "the record does not name its program"
+  # A hetinv-run.json that is not a run record is the user's: refused, kept.
+  mkdir -p "$work/theirs"
+  echo '{"runs": 3}' >"$work/theirs/hetinv-run.json"
+  if "$bin/hetinv-render" "$scene" --photons 200 --threads 1 -o "$work/theirs" >"$work/b.out" 2>&1; then
+    fail "a render over the user's own hetinv-run.json succeeded"
+  fi
+  grep -q "hetinv-run.json: exists and is not a run record" "$work/b.out" || { fail "no reason given:"; sed 's/^/  | /' "$work/b.out"; }
+  [ "$(cat "$work/theirs/hetinv-run.json")" = '{"runs": 3}' ] || fail "the user's hetinv-run.json was changed"
+  [ ! -e "$work/theirs/front_side.exr" ] || fail "the refused render wrote images"
   ;;
 
 *)

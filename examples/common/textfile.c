@@ -1,16 +1,17 @@
-/* Small text outputs (CSV tables) written whole or not at all, as the
- * library writes its files: into "<path>.hetinv-tmp-XXXXXX" (the pattern
- * outdir.h removes when a killed run left one), renamed over <path> once
- * complete and on disk. */
+/* Small text outputs (CSV tables, the run record) written whole or not at
+ * all (textfile.h). */
+#ifndef _POSIX_C_SOURCE
+#define _POSIX_C_SOURCE 200809L
+#endif
+#include "textfile.h"
+
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "recon.h"
-
-FILE *recon_text_begin(const char *path, char *tmp, size_t tmp_size) {
+FILE *text_file_begin(const char *path, char *tmp, size_t tmp_size) {
   int n = snprintf(tmp, tmp_size, "%s.hetinv-tmp-XXXXXX", path);
   if (n < 0 || (size_t)n >= tmp_size) {
     errno = ENAMETOOLONG;
@@ -29,7 +30,7 @@ FILE *recon_text_begin(const char *path, char *tmp, size_t tmp_size) {
   return f;
 }
 
-int recon_text_commit(FILE *f, const char *tmp, const char *path) {
+int text_file_commit(FILE *f, const char *tmp, const char *path) {
   /* ferror: an earlier fprintf failed; its errno may be gone, so EIO. */
   int err = ferror(f) ? EIO : 0;
   if (fflush(f) != 0 || fsync(fileno(f)) != 0) err = errno;
