@@ -22,10 +22,13 @@
 #define RECORD_PATH_MAX 4096
 /* An earlier record is read to resume it; a real one is kilobytes. */
 #define RECORD_READ_MAX ((long)64 << 20)
-/* Entries listed per list and subfolder depth: a folder of millions of
- * files, or a deep tree put under the output folder, is not walked whole. */
+/* What the end's listing walks: the folder and its subfolders (hetinv-fig4
+ * writes a folder per cell), no deeper, at most RECORD_LIST_MAX files, of
+ * which at most RECORD_OLDER_MAX older ones are named: an output folder
+ * given as "-o ." in a source tree is not copied into the record. */
 #define RECORD_LIST_MAX 100000
-#define RECORD_DEPTH_MAX 4
+#define RECORD_OLDER_MAX 1000
+#define RECORD_DEPTH_MAX 1
 
 static int fail(const char *prog, const char *path, const char *what) {
   fprintf(stderr, "%s: %s: %s\n", prog, path, what);
@@ -247,7 +250,7 @@ int run_record_begin(run_record_t *rec, const char *prog, const char *folder, in
 
 typedef struct listing {
   cJSON *written, *older;
-  int count;
+  int count, older_count;
   bool truncated;
 } listing_t;
 
@@ -283,7 +286,7 @@ static void list_files(const run_record_t *rec, const char *rel, int depth, list
       cJSON_AddStringToObject(entry, "name", name);
       cJSON_AddNumberToObject(entry, "bytes", (double)st.st_size);
       cJSON_AddItemToArray(out->written, entry);
-    } else {
+    } else if (out->older_count++ < RECORD_OLDER_MAX) {
       cJSON_AddItemToArray(out->older, cJSON_CreateString(name));
     }
   }
@@ -325,10 +328,11 @@ int run_record_end(run_record_t *rec, int exit_status) {
   set_item(root, "finished", cJSON_CreateString(when));
   double seconds = (double)(now.tv_sec - rec->wall_start.tv_sec) + 1e-9 * (double)(now.tv_nsec - rec->wall_start.tv_nsec);
   set_item(root, "seconds", cJSON_CreateNumber(seconds));
-  listing_t files = {cJSON_CreateArray(), cJSON_CreateArray(), 0, false};
+  listing_t files = {cJSON_CreateArray(), cJSON_CreateArray(), 0, 0, false};
   if (files.written != NULL && files.older != NULL) list_files(rec, "", 0, &files);
   set_item(root, "files", sorted(files.written));
   set_item(root, "older_files", sorted(files.older));
+  if (files.older_count > RECORD_OLDER_MAX) set_item(root, "older_files_in_all", cJSON_CreateNumber(files.older_count));
   if (files.truncated) set_item(root, "files_listed_at_most", cJSON_CreateNumber(RECORD_LIST_MAX));
   int status = exit_status;
   if (snprintf(path, sizeof path, "%s/%s", rec->folder, RUN_RECORD_NAME) >= (int)sizeof path ||

@@ -10,9 +10,10 @@
  * The record holds the program, the library's version, the command line,
  * the working folder, the start and end (UTC) and, at the end, the files
  * the run wrote ("files": name and bytes, names relative to the folder,
- * subfolders included) apart from the files it found there and did not
- * rewrite ("older_files": an earlier run's results, the user's own
- * files). A file counts as written by the run if the file system dated it
+ * its subfolders' included, not deeper) apart from the files it found
+ * there and did not rewrite ("older_files": an earlier run's results, the
+ * user's own files; the first 1000 by the directory's order, then their
+ * number in "older_files_in_all"). A file counts as written by the run if the file system dated it
  * at or after the record's first write, so no program has to list what it
  * writes. A run resumed from a checkpoint (resume = true) whose record,
  * by the same program, did not end "complete" keeps that record's start:

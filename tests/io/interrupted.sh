@@ -201,6 +201,22 @@ run_record)
   grep -q "hetinv-run.json: exists and is not a run record" "$work/b.out" || { fail "no reason given:"; sed 's/^/  | /' "$work/b.out"; }
   [ "$(cat "$work/theirs/hetinv-run.json")" = '{"runs": 3}' ] || fail "the user's hetinv-run.json was changed"
   [ ! -e "$work/theirs/front_side.exr" ] || fail "the refused render wrote images"
+  # A folder of many older files ("-o ." in a source tree): the record
+  # names 1000 of them and counts the rest; it does not walk below the
+  # folder's subfolders.
+  mkdir -p "$work/many/sub/deeper"
+  i=0
+  while [ $i -lt 1010 ]; do
+    : >"$work/many/f$i"
+    i=$((i + 1))
+  done
+  : >"$work/many/sub/deeper/old.txt"
+  touch -d '2001-01-01' "$work"/many/f* "$work/many/sub/deeper/old.txt"
+  "$bin/hetinv-render" "$scene" --photons 200 --threads 1 -o "$work/many" >"$work/c.out" 2>&1 || fail "the render failed"
+  record_says "$work/many" complete
+  grep -q '"older_files_in_all":[[:space:]]*1010' "$work/many/hetinv-run.json" || fail "the record does not count 1010 older files"
+  [ "$(grep -o '"f[0-9]*"' "$work/many/hetinv-run.json" | wc -l)" -eq 1000 ] || fail "the record does not name 1000 older files"
+  ! grep -q "deeper" "$work/many/hetinv-run.json" || fail "the record walked below a subfolder"
   ;;
 
 *)
