@@ -106,12 +106,12 @@ static bool at_or_after(const struct timespec *a, const struct timespec *b) {
  * there is none, -1 after a message (unreadable, or not a record). */
 static int read_record(const char *prog, const char *path, cJSON **out) {
   *out = NULL;
-  FILE *f = fopen(path, "rb");
-  if (f == NULL) {
-    if (errno == ENOENT) return 0;
-    return fail(prog, path, strerror(errno));
-  }
   struct stat st;
+  /* lstat first: opening a FIFO would wait for a writer. */
+  if (lstat(path, &st) != 0) return errno == ENOENT ? 0 : fail(prog, path, strerror(errno));
+  if (!S_ISREG(st.st_mode)) return fail(prog, path, "is not a regular file; the run record is written there");
+  FILE *f = fopen(path, "rb");
+  if (f == NULL) return fail(prog, path, strerror(errno));
   char *text = NULL;
   int status = -1;
   if (fstat(fileno(f), &st) != 0) {

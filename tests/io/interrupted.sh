@@ -201,6 +201,13 @@ run_record)
   grep -q "hetinv-run.json: exists and is not a run record" "$work/b.out" || { fail "no reason given:"; sed 's/^/  | /' "$work/b.out"; }
   [ "$(cat "$work/theirs/hetinv-run.json")" = '{"runs": 3}' ] || fail "the user's hetinv-run.json was changed"
   [ ! -e "$work/theirs/front_side.exr" ] || fail "the refused render wrote images"
+  # A FIFO in the record's place would hold a reader forever: refused.
+  mkdir -p "$work/fifo"
+  mkfifo "$work/fifo/hetinv-run.json"
+  timeout 60 "$bin/hetinv-render" "$scene" --photons 200 --threads 1 -o "$work/fifo" >"$work/d.out" 2>&1
+  rc=$?
+  [ $rc -eq 1 ] || fail "a render over a FIFO named hetinv-run.json: exit status $rc, not 1"
+  grep -q "hetinv-run.json: is not a regular file" "$work/d.out" || { fail "no reason given:"; sed 's/^/  | /' "$work/d.out"; }
   # A folder of many older files ("-o ." in a source tree): the record
   # names 1000 of them and counts the rest; it does not walk below the
   # folder's subfolders.
