@@ -36,10 +36,11 @@ void recon_scene_builtin(recon_scene_t *sc) {
    * file. A weight of 1500, chosen on seeds 2–21, was this scene's default
    * until the unseen seeds 22–121 said otherwise: 92 of 100 passed with it
    * and 93 without, and 3 of their 10 batches of ten fell under the
-   * issue's 9 with it (62–71, 92–101, 112–121) against none without. Its
-   * misses were its own bias on steep fields; without it the misses are g
-   * split between neighbours, which the bound can judge since the
-   * recovery is then unbiased (docs/results/seeds.md). */
+   * issue's 9 with it (62–71, 92–101, 112–121) against none without; the
+   * next batch, 122–131, passed 9 without it. Its misses were its own bias
+   * on steep fields; without it the misses are g split between neighbours,
+   * which the bound can judge since the recovery is then unbiased
+   * (docs/results/seeds.md). */
   sc->smoothness = 0.0;
 }
 
