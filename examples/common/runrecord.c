@@ -224,16 +224,17 @@ int run_record_begin(run_record_t *rec, const char *prog, const char *folder, in
     cJSON_AddStringToObject(root, "started", when);
   }
   cJSON_Delete(old);
-  if (write_record(rec, path) != 0) {
+  if (reserve(rec, path) != 0) {
     forget(rec);
     return -1;
   }
   if (resumed) {
     rec->start = start;
   } else {
-    /* The file system's own clock, the one that dates the run's files. */
+    /* The file system's own clock, the one that dates the run's files:
+     * the reserve was just created. */
     struct stat st;
-    if (stat(path, &st) != 0) {
+    if (fstat(rec->reserve_fd, &st) != 0) {
       forget(rec);
       return fail(prog, path, strerror(errno));
     }
@@ -241,7 +242,7 @@ int run_record_begin(run_record_t *rec, const char *prog, const char *folder, in
   }
   cJSON_AddNumberToObject(root, "start_file_time_s", (double)rec->start.tv_sec);
   cJSON_AddNumberToObject(root, "start_file_time_ns", (double)rec->start.tv_nsec);
-  if (write_record(rec, path) != 0 || reserve(rec, path) != 0) {
+  if (write_record(rec, path) != 0) {
     forget(rec);
     return -1;
   }

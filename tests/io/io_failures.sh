@@ -205,7 +205,7 @@ full_disk)
   done
   # A checkpoint larger than the stdio buffer: its fwrite itself fails.
   # 12k as before the run record, plus the record's own 4 KiB page, the
-  # 4 KiB reserved for its end, and a page while it is rewritten at the start.
+  # 4 KiB reserved for its end, and a page of slack.
   mount_tmpfs "$fs" size=24k || fail "cannot mount a 24k tmpfs"
   run big hetinv-reconstruct "$src/tests/data/reconstruct/io_checkpoint.json" --threads 1 -o "$fs/big" --quiet \
     --no-bound
