@@ -5,7 +5,7 @@
  *
  *   hetinv-bench-reconstruct [--iterations N] [--photons N] [--truth-photons N]
  *                            [--threads N] [-o DIR] [--require MEAN,MAX] [--seeds A-B]
- *                            [--scene FILE] [--bound-photons N]
+ *                            [--scene FILE] [--bound-photons N [--bound-only]]
  *
  * --iterations: of the finest stage (default the scene's, 600); coarser
  * stages get the scene's fraction of it, as in hetinv-reconstruct.
@@ -28,6 +28,21 @@
  *   reconstruct param=g mean_rel_bound=… max_error_over_bound=… voxels_over_2x_bound=N/M
  *
  * and the summary line gains g_max_error_over_bound=… (likewise σa, σs).
+ * With --require as well, what an efficient unbiased recovery would score
+ * (recon_bound_efficient): per parameter the expected number of voxels
+ * over the max target, "efficient_voxels_over_max=…", and per volume a
+ * lower bound of its odds of passing the max target,
+ * "efficient_pass_at_least=…", summed over the volumes into the last line's
+ * "efficient_expected_passes_at_least=…": the pass count the data allow,
+ * against which the batch's own count is read.
+ * --bound-only: the bound without the reconstruction (with -o, bound.exr
+ * and its PNGs per volume): per volume its bound lines, then
+ *
+ *   reconstruct seed=s seconds=T efficient_pass_at_least=P
+ *
+ * and "reconstruct volumes=N passed=- efficient_expected_passes_at_least=E":
+ * whether a scene's data can meet the target on most volumes, before
+ * any volume is reconstructed.
  *
  * Output, one line per figure (DESIGN §8):
  *
@@ -72,7 +87,7 @@ static void usage(FILE *f) {
   fprintf(f,
           "usage: " PROG " [--iterations N] [--photons N] [--truth-photons N]\n"
           "                                [--threads N] [-o DIR] [--require MEAN,MAX] [--seeds A-B]\n"
-          "                                [--scene FILE] [--bound-photons N]\n"
+          "                                [--scene FILE] [--bound-photons N [--bound-only]]\n"
           "  --iterations N  iterations of the finest stage (default: the scene's)\n"
           "  --photons N     photons per emitter of the optimiser (default: the scene's)\n"
           "  --truth-photons N  photons per emitter of the simulated measurements\n"
@@ -85,7 +100,10 @@ static void usage(FILE *f) {
           "                  summary line each and a pass count\n"
           "  --scene FILE    a hetinv-reconstruct scene read over the built-in one\n"
           "  --bound-photons N  also the Cramer-Rao bound of each volume (N photons per\n"
-          "                  emitter, 8 replicates) and each voxel's error / its bound\n");
+          "                  emitter, 8 replicates) and each voxel's error / its bound;\n"
+          "                  with --require, what an efficient recovery would score\n"
+          "  --bound-only    the bound alone, no reconstruction (needs --bound-photons):\n"
+          "                  with --require, the pass count the data allow\n");
 }
 
 /* Removes a directory this program created and the plain files in it. */
@@ -108,7 +126,7 @@ static void remove_tree(const char *dir) {
  * figures prefixed by `tag`. 0 on success, 1 on a library error, 3 when
  * `require` is set and missed. */
 static int run_volume(recon_scene_t *sc, const char *tag, const double require[2], int64_t bound_photons,
-                      recon_errors_t *e, double *seconds) {
+                      bool bound_only, recon_errors_t *e, recon_efficient_t *eff, double *seconds) {
   hetinv_context_init_t init = HETINV_CONTEXT_INIT_DEFAULT;
   init.seed = sc->seed;
   init.thread_count = sc->threads;
@@ -141,25 +159,34 @@ static int run_volume(recon_scene_t *sc, const char *tag, const double require[2
     t_sim = recon_now() - t;
   }
   char msg[2048];
-  if (status == 0 && recon_solve(ctx, sc, &im, false, true, &rec, &t_opt, msg, sizeof msg) != HETINV_SUCCESS) {
+  memset(e, 0, sizeof *e);
+  if (status == 0 && !bound_only &&
+      recon_solve(ctx, sc, &im, false, true, &rec, &t_opt, msg, sizeof msg) != HETINV_SUCCESS) {
     fprintf(stderr, PROG ": %s\n", msg);
     status = 1;
   }
   recon_bound_t bound;
   memset(&bound, 0, sizeof bound);
-  if (status == 0) recon_errors(truth, rec, e);
+  if (status == 0 && rec) recon_errors(truth, rec, e);
   if (status == 0 && bound_photons > 0) {
     if (recon_bound_compute(ctx, sc, truth, &im, bound_photons, 8, &bound) != HETINV_SUCCESS) {
       status = recon_fail(PROG, ctx, "bound");
-    } else {
+    } else if (rec) {
       recon_bound_attach(&bound, truth, rec, e);
     }
   }
-  if (status == 0) {
+  const double none = (double)NAN;
+  *eff = (recon_efficient_t){.over_max = {none, none, none}, .pass = none};
+  if (status == 0 && bound.done && require[1] > 0.0) {
+    recon_bound_efficient(&bound, hetinv_medium_voxel_count(truth), require[1], eff);
+  }
+  if (status == 0 && rec) {
     if (recon_write_outputs(ctx, sc, truth, rec, e, msg, sizeof msg) != HETINV_SUCCESS) {
       fprintf(stderr, PROG ": %s\n", msg);
       status = 1;
     }
+  } else if (status == 0 && recon_bound_write(ctx, sc, truth, &bound) != HETINV_SUCCESS) {
+    status = recon_fail(PROG, ctx, "bound maps");
   }
   if (status == 0) {
     *seconds = recon_now() - t0;
@@ -167,16 +194,24 @@ static int run_volume(recon_scene_t *sc, const char *tag, const double require[2
     printf("%s optimisation_seconds=%.3f\n", tag, t_opt);
     printf("%s total_seconds=%.3f\n", tag, *seconds);
     printf("%s seconds_per_iteration=%.5f\n", tag, all_iterations > 0 ? t_opt / (double)all_iterations : 0.0);
-    for (int p = 0; p < 3; ++p) {
+    for (int p = 0; rec && p < 3; ++p) {
       printf("%s param=%s mean_rel_error=%.4f max_rel_error=%.4f\n", tag, hetinv_param_name(p), e->mean[p],
              e->max[p]);
     }
-    for (int p = 0; e->has_bound && p < 3; ++p) {
-      printf("%s param=%s mean_rel_bound=%.4f max_rel_bound=%.4f max_error_over_bound=%.3g voxels_over_2x_bound=%zu/%zu%s\n",
-             tag, hetinv_param_name(p), bound.mean[p], bound.max[p], e->max_over_bound[p], e->over_2x_bound[p],
-             e->bounded[p], bound.positive_definite ? "" : " (estimated F not positive definite)");
+    for (int p = 0; bound.done && p < 3; ++p) {
+      printf("%s param=%s mean_rel_bound=%.4f max_rel_bound=%.4f", tag, hetinv_param_name(p), bound.mean[p],
+             bound.max[p]);
+      if (e->has_bound) {
+        printf(" max_error_over_bound=%.3g rms_error_over_bound=%.3g voxels_over_2x_bound=%zu/%zu",
+               e->max_over_bound[p], e->rms_over_bound[p], e->over_2x_bound[p], e->bounded[p]);
+      }
+      printf("%s\n", bound.positive_definite ? "" : " (estimated F not positive definite)");
+      if (!isnan(eff->pass)) {
+        printf("%s param=%s efficient_voxels_over_max=%.3f\n", tag, hetinv_param_name(p), eff->over_max[p]);
+      }
     }
-    for (int p = 0; require[0] > 0.0 && p < 3; ++p) {
+    if (!isnan(eff->pass)) printf("%s efficient_pass_at_least=%.3f\n", tag, eff->pass);
+    for (int p = 0; rec && require[0] > 0.0 && p < 3; ++p) {
       if (e->mean[p] > require[0] || e->max[p] > require[1]) {
         fprintf(stderr, PROG ": %s: %s: mean/max relative error %.4f/%.4f above the required %.4f/%.4f\n",
                 tag, hetinv_param_name(p), e->mean[p], e->max[p], require[0], require[1]);
@@ -214,6 +249,7 @@ int main(int argc, char **argv) {
   const char *out_dir = NULL, *scene_path = NULL;
   int64_t iterations = -1, photons = -1, truth_photons = -1, threads = -1, seed_first = -1, seed_last = -1;
   int64_t bound_photons = 0;
+  bool bound_only = false;
   double require[2] = {-1.0, -1.0};
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -247,6 +283,8 @@ int main(int argc, char **argv) {
     } else if (strcmp(a, "--bound-photons") == 0 && v) {
       if (recon_parse_count(PROG, a, v, 1, INT64_C(1) << 40, &bound_photons) < 0) return 2;
       ++i;
+    } else if (strcmp(a, "--bound-only") == 0) {
+      bound_only = true;
     } else if (strcmp(a, "--scene") == 0 && v) {
       scene_path = v;
       ++i;
@@ -271,6 +309,10 @@ int main(int argc, char **argv) {
       return 2;
     }
   }
+  if (bound_only && bound_photons == 0) {
+    fprintf(stderr, PROG ": --bound-only wants --bound-photons N (the bound's photons per emitter)\n");
+    return 2;
+  }
   if (iterations > 0) sc.iterations = iterations;
   if (photons > 0) sc.photons = photons;
   if (truth_photons > 0) sc.truth_photons = truth_photons;
@@ -291,12 +333,14 @@ int main(int argc, char **argv) {
 
   int status = 0;
   recon_errors_t e;
+  recon_efficient_t eff;
   double seconds = 0.0;
   if (seed_first < 0) {
     (void)recon_scene_set_output(&sc, "%s", out_dir); /* fits: recon_parse_folder */
-    status = run_volume(&sc, "reconstruct", require, bound_photons, &e, &seconds);
+    status = run_volume(&sc, "reconstruct", require, bound_photons, bound_only, &e, &eff, &seconds);
   } else {
     int64_t passed = 0, count = 0;
+    double efficient_passes = 0.0; /* NaN once a volume has no bound */
     for (int64_t s = seed_first; s <= seed_last; ++s) {
       char tag[64];
       snprintf(tag, sizeof tag, "reconstruct seed=%lld", (long long)s);
@@ -307,7 +351,7 @@ int main(int argc, char **argv) {
       }
       sc.truth_seed = (uint64_t)s;
       sc.noise_model.seed = (uint64_t)s;
-      int st = run_volume(&sc, tag, require, bound_photons, &e, &seconds);
+      int st = run_volume(&sc, tag, require, bound_photons, bound_only, &e, &eff, &seconds);
       if (tmp_dir[0]) remove_tree(sc.output);
       if (st == 1) {
         status = 1;
@@ -315,20 +359,31 @@ int main(int argc, char **argv) {
       }
       ++count;
       passed += st == 0;
+      efficient_passes += eff.pass;
+      if (bound_only) {
+        printf("%s seconds=%.1f efficient_pass_at_least=%.3f\n", tag, seconds, eff.pass);
+        fflush(stdout);
+        continue;
+      }
       printf("%s sigma_a=%.4f/%.4f sigma_s=%.4f/%.4f g=%.4f/%.4f seconds=%.1f pass=%s", tag, e.mean[0],
              e.max[0], e.mean[1], e.max[1], e.mean[2], e.max[2], seconds,
              require[0] > 0.0 ? (st == 0 ? "yes" : "no") : "-");
       for (int p = 0; e.has_bound && p < 3; ++p) {
         printf(" %s_max_error_over_bound=%.3g", hetinv_param_name(p), e.max_over_bound[p]);
       }
+      if (!isnan(eff.pass)) printf(" efficient_pass_at_least=%.3f", eff.pass);
       printf("\n");
       fflush(stdout);
       if (st == 3) status = 3;
     }
-    if (require[0] > 0.0) {
-      printf("reconstruct volumes=%lld passed=%lld\n", (long long)count, (long long)passed);
+    if (require[0] > 0.0 && !bound_only) {
+      printf("reconstruct volumes=%lld passed=%lld", (long long)count, (long long)passed);
+      if (!isnan(efficient_passes)) printf(" efficient_expected_passes_at_least=%.2f", efficient_passes);
+      printf("\n");
     } else {
-      printf("reconstruct volumes=%lld passed=-\n", (long long)count);
+      printf("reconstruct volumes=%lld passed=-", (long long)count);
+      if (!isnan(efficient_passes)) printf(" efficient_expected_passes_at_least=%.2f", efficient_passes);
+      printf("\n");
     }
   }
   if (tmp_dir[0]) remove_tree(tmp_dir);

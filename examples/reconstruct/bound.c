@@ -475,20 +475,23 @@ void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,
   for (int p = 0; p < 3; ++p) {
     /* Past the dense limit only the local bound exists (a lower bound of
      * the bound): the ratios are to it. */
-    const double *rel = b->spacing > 0 ? b->local[p] : b->rel[p];
+    const double *rel = recon_bound_per_voxel(b, p);
     double mean = b->spacing > 0 ? b->local_mean[0][p] : b->mean[p];
     e->bound_mean[p] = b->done ? mean : (double)NAN;
     e->achieved_over_bound[p] = b->done ? e->mean[p] / mean : (double)NAN;
     e->max_over_bound[p] = b->done ? 0.0 : (double)NAN;
     e->over_2x_bound[p] = e->bounded[p] = 0;
     const double *t = hetinv_medium_grid(truth, p), *x = hetinv_medium_grid(rec, p);
+    double squares = 0.0;
     for (size_t v = 0; b->done && v < voxels; ++v) {
       if (!isfinite(rel[v]) || !(rel[v] > 0.0)) continue;
       double ratio = fabs(x[v] - t[v]) / fabs(t[v]) / rel[v];
       e->max_over_bound[p] = fmax(e->max_over_bound[p], ratio);
       e->over_2x_bound[p] += ratio > 2.0;
+      squares += ratio * ratio;
       ++e->bounded[p];
     }
+    e->rms_over_bound[p] = e->bounded[p] > 0 ? sqrt(squares / (double)e->bounded[p]) : (double)NAN;
     if (e->bounded[p] == 0) e->max_over_bound[p] = (double)NAN; /* no voxel has a bound */
   }
 }

@@ -347,6 +347,7 @@ typedef struct recon_errors {
   bool has_bound;
   double bound_mean[3], achieved_over_bound[3];
   double max_over_bound[3];
+  double rms_over_bound[3]; /* root mean square of error / bound: about 1 if efficient */
   size_t over_2x_bound[3], bounded[3];
 } recon_errors_t;
 void recon_errors(const hetinv_medium_t *truth, const hetinv_medium_t *recovered, recon_errors_t *e);
@@ -467,6 +468,27 @@ hetinv_result_t recon_bound_write(hetinv_context_t *ctx, const recon_scene_t *sc
 int recon_bound_run(const char *prog, hetinv_context_t *ctx, const recon_scene_t *scene,
                     const hetinv_medium_t *at, recon_imaging_t *im, int64_t photons,
                     int32_t replicates, bool root, bool at_recovery, recon_bound_t *b);
+/* The per-voxel relative bound of parameter p that errors are judged by:
+ * the local one where only it exists (b->spacing > 0), else rel. */
+static inline const double *recon_bound_per_voxel(const recon_bound_t *b, int p) {
+  return b->spacing > 0 ? b->local[p] : b->rel[p];
+}
+/* An efficient unbiased recovery against a worst-voxel target max_rel,
+ * each voxel's relative error taken as normal with its bound as standard
+ * deviation (efficient.c): over_max[p], the expected number of voxels of
+ * parameter p whose error exceeds max_rel (exact for normal errors, by
+ * linearity); pass, the product over every voxel of the three parameters
+ * of P(|error| <= max_rel). Correlated normal errors pass with at least
+ * that probability (Sidak's inequality), so pass is a lower bound of an
+ * efficient recovery's odds of meeting the target, and 1 - pass an upper
+ * bound of its odds of missing. Where the bound is the local one (a lower
+ * bound of the standard deviation), both figures lean the other way: the
+ * data predict at least these misses. NaN without a bound. */
+typedef struct recon_efficient {
+  double over_max[3];
+  double pass;
+} recon_efficient_t;
+void recon_bound_efficient(const recon_bound_t *b, size_t voxels, double max_rel, recon_efficient_t *out);
 /* Fills e's bound columns from b and the recovery (no-op if b was not
  * computed); with only the local bound (b->spacing > 0), from it. */
 void recon_bound_attach(const recon_bound_t *b, const hetinv_medium_t *truth,

@@ -1,0 +1,23 @@
+/* What an efficient unbiased recovery would score against a worst-voxel
+ * target, from the bound alone: how many of a volume's misses the data
+ * predict, so that a batch's pass count can be read against what its data
+ * allow (docs/results/seeds.md). */
+#include <math.h>
+
+#include "recon.h"
+
+void recon_bound_efficient(const recon_bound_t *b, size_t voxels, double max_rel, recon_efficient_t *out) {
+  *out = (recon_efficient_t){.pass = b->done ? 1.0 : (double)NAN};
+  for (int p = 0; p < 3; ++p) {
+    out->over_max[p] = b->done ? 0.0 : (double)NAN;
+    const double *rel = recon_bound_per_voxel(b, p);
+    for (size_t v = 0; b->done && v < voxels; ++v) {
+      if (isnan(rel[v]) || !(rel[v] >= 0.0)) continue; /* no bound; an infinite one misses surely */
+      /* P(|z| > max_rel / bound), z standard normal; erfc(+inf) = 0 at a
+       * zero bound, erfc(0) = 1 at an infinite one. */
+      double miss = erfc(max_rel / rel[v] / sqrt(2.0));
+      out->over_max[p] += miss;
+      out->pass *= 1.0 - miss;
+    }
+  }
+}
