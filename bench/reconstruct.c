@@ -31,16 +31,17 @@
  * With --require as well, what an efficient unbiased recovery would score
  * (recon_bound_efficient): per parameter the expected number of voxels
  * over the max target, "efficient_voxels_over_max=…", and per volume a
- * lower bound of its odds of passing the max target,
- * "efficient_pass_at_least=…", summed over the volumes into the last line's
- * "efficient_expected_passes_at_least=…": the pass count the data allow,
+ * lower and an upper bound of its odds of passing the max target,
+ * "efficient_pass_at_least=… efficient_pass_at_most=…", summed over the
+ * volumes into the last line's "efficient_expected_passes_at_least=…
+ * efficient_expected_passes_at_most=…": the pass count the data allow,
  * against which the batch's own count is read.
  * --bound-only: the bound without the reconstruction (with -o, bound.exr
  * and its PNGs per volume): per volume its bound lines, then
  *
- *   reconstruct seed=s seconds=T efficient_pass_at_least=P
+ *   reconstruct seed=s seconds=T efficient_pass_at_least=P efficient_pass_at_most=Q
  *
- * and "reconstruct volumes=N passed=- efficient_expected_passes_at_least=E":
+ * and "reconstruct volumes=N passed=- efficient_expected_passes_at_least=E …":
  * whether a scene's data can meet the target on most volumes, before
  * any volume is reconstructed.
  *
@@ -176,7 +177,7 @@ static int run_volume(recon_scene_t *sc, const char *tag, const double require[2
     }
   }
   const double none = (double)NAN;
-  *eff = (recon_efficient_t){.over_max = {none, none, none}, .pass = none};
+  *eff = (recon_efficient_t){.over_max = {none, none, none}, .pass = none, .pass_at_most = none};
   if (status == 0 && bound.done && require[1] > 0.0) {
     recon_bound_efficient(&bound, hetinv_medium_voxel_count(truth), require[1], eff);
   }
@@ -191,9 +192,11 @@ static int run_volume(recon_scene_t *sc, const char *tag, const double require[2
   if (status == 0) {
     *seconds = recon_now() - t0;
     printf("%s simulate_seconds=%.3f\n", tag, t_sim);
-    printf("%s optimisation_seconds=%.3f\n", tag, t_opt);
+    if (rec) printf("%s optimisation_seconds=%.3f\n", tag, t_opt);
     printf("%s total_seconds=%.3f\n", tag, *seconds);
-    printf("%s seconds_per_iteration=%.5f\n", tag, all_iterations > 0 ? t_opt / (double)all_iterations : 0.0);
+    if (rec) {
+      printf("%s seconds_per_iteration=%.5f\n", tag, all_iterations > 0 ? t_opt / (double)all_iterations : 0.0);
+    }
     for (int p = 0; rec && p < 3; ++p) {
       printf("%s param=%s mean_rel_error=%.4f max_rel_error=%.4f\n", tag, hetinv_param_name(p), e->mean[p],
              e->max[p]);
@@ -210,7 +213,9 @@ static int run_volume(recon_scene_t *sc, const char *tag, const double require[2
         printf("%s param=%s efficient_voxels_over_max=%.3f\n", tag, hetinv_param_name(p), eff->over_max[p]);
       }
     }
-    if (!isnan(eff->pass)) printf("%s efficient_pass_at_least=%.3f\n", tag, eff->pass);
+    if (!isnan(eff->pass)) {
+      printf("%s efficient_pass_at_least=%.3f efficient_pass_at_most=%.3f\n", tag, eff->pass, eff->pass_at_most);
+    }
     for (int p = 0; rec && require[0] > 0.0 && p < 3; ++p) {
       if (e->mean[p] > require[0] || e->max[p] > require[1]) {
         fprintf(stderr, PROG ": %s: %s: mean/max relative error %.4f/%.4f above the required %.4f/%.4f\n",
@@ -340,7 +345,7 @@ int main(int argc, char **argv) {
     status = run_volume(&sc, "reconstruct", require, bound_photons, bound_only, &e, &eff, &seconds);
   } else {
     int64_t passed = 0, count = 0;
-    double efficient_passes = 0.0; /* NaN once a volume has no bound */
+    double efficient_passes = 0.0, efficient_passes_most = 0.0; /* NaN once a volume has no bound */
     for (int64_t s = seed_first; s <= seed_last; ++s) {
       char tag[64];
       snprintf(tag, sizeof tag, "reconstruct seed=%lld", (long long)s);
@@ -360,8 +365,10 @@ int main(int argc, char **argv) {
       ++count;
       passed += st == 0;
       efficient_passes += eff.pass;
+      efficient_passes_most += eff.pass_at_most;
       if (bound_only) {
-        printf("%s seconds=%.1f efficient_pass_at_least=%.3f\n", tag, seconds, eff.pass);
+        printf("%s seconds=%.1f efficient_pass_at_least=%.3f efficient_pass_at_most=%.3f\n", tag, seconds,
+               eff.pass, eff.pass_at_most);
         fflush(stdout);
         continue;
       }
@@ -371,18 +378,24 @@ int main(int argc, char **argv) {
       for (int p = 0; e.has_bound && p < 3; ++p) {
         printf(" %s_max_error_over_bound=%.3g", hetinv_param_name(p), e.max_over_bound[p]);
       }
-      if (!isnan(eff.pass)) printf(" efficient_pass_at_least=%.3f", eff.pass);
+      if (!isnan(eff.pass)) printf(" efficient_pass_at_least=%.3f efficient_pass_at_most=%.3f", eff.pass, eff.pass_at_most);
       printf("\n");
       fflush(stdout);
       if (st == 3) status = 3;
     }
     if (require[0] > 0.0 && !bound_only) {
       printf("reconstruct volumes=%lld passed=%lld", (long long)count, (long long)passed);
-      if (!isnan(efficient_passes)) printf(" efficient_expected_passes_at_least=%.2f", efficient_passes);
+      if (!isnan(efficient_passes)) {
+        printf(" efficient_expected_passes_at_least=%.2f efficient_expected_passes_at_most=%.2f", efficient_passes,
+               efficient_passes_most);
+      }
       printf("\n");
     } else {
       printf("reconstruct volumes=%lld passed=-", (long long)count);
-      if (!isnan(efficient_passes)) printf(" efficient_expected_passes_at_least=%.2f", efficient_passes);
+      if (!isnan(efficient_passes)) {
+        printf(" efficient_expected_passes_at_least=%.2f efficient_expected_passes_at_most=%.2f", efficient_passes,
+               efficient_passes_most);
+      }
       printf("\n");
     }
   }

@@ -480,13 +480,14 @@ static inline const double *recon_bound_per_voxel(const recon_bound_t *b, int p)
  * linearity); pass, the product over every voxel of the three parameters
  * of P(|error| <= max_rel). Correlated normal errors pass with at least
  * that probability (Sidak's inequality), so pass is a lower bound of an
- * efficient recovery's odds of meeting the target, and 1 - pass an upper
- * bound of its odds of missing. Where the bound is the local one (a lower
- * bound of the standard deviation), both figures lean the other way: the
- * data predict at least these misses. NaN without a bound. */
+ * efficient recovery's odds of meeting the target; pass_at_most, the
+ * hardest voxel's P(|error| <= max_rel), an upper bound. Where the bound
+ * is the local one (a lower bound of the standard deviation), the figures
+ * lean the other way: the data predict at least these misses. NaN without
+ * a bound. */
 typedef struct recon_efficient {
   double over_max[3];
-  double pass;
+  double pass, pass_at_most;
 } recon_efficient_t;
 void recon_bound_efficient(const recon_bound_t *b, size_t voxels, double max_rel, recon_efficient_t *out);
 /* Fills e's bound columns from b and the recovery (no-op if b was not
