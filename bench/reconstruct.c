@@ -367,16 +367,14 @@ int main(int argc, char **argv) {
       efficient_passes += eff.pass;
       efficient_passes_most += eff.pass_at_most;
       if (bound_only) {
-        printf("%s seconds=%.1f efficient_pass_at_least=%.3f efficient_pass_at_most=%.3f\n", tag, seconds,
-               eff.pass, eff.pass_at_most);
-        fflush(stdout);
-        continue;
-      }
-      printf("%s sigma_a=%.4f/%.4f sigma_s=%.4f/%.4f g=%.4f/%.4f seconds=%.1f pass=%s", tag, e.mean[0],
-             e.max[0], e.mean[1], e.max[1], e.mean[2], e.max[2], seconds,
-             require[0] > 0.0 ? (st == 0 ? "yes" : "no") : "-");
-      for (int p = 0; e.has_bound && p < 3; ++p) {
-        printf(" %s_max_error_over_bound=%.3g", hetinv_param_name(p), e.max_over_bound[p]);
+        printf("%s seconds=%.1f", tag, seconds);
+      } else {
+        printf("%s sigma_a=%.4f/%.4f sigma_s=%.4f/%.4f g=%.4f/%.4f seconds=%.1f pass=%s", tag, e.mean[0],
+               e.max[0], e.mean[1], e.max[1], e.mean[2], e.max[2], seconds,
+               require[0] > 0.0 ? (st == 0 ? "yes" : "no") : "-");
+        for (int p = 0; e.has_bound && p < 3; ++p) {
+          printf(" %s_max_error_over_bound=%.3g", hetinv_param_name(p), e.max_over_bound[p]);
+        }
       }
       if (!isnan(eff.pass)) printf(" efficient_pass_at_least=%.3f efficient_pass_at_most=%.3f", eff.pass, eff.pass_at_most);
       printf("\n");

@@ -14,7 +14,7 @@ void recon_bound_efficient(const recon_bound_t *b, size_t voxels, double max_rel
     out->over_max[p] = b->done ? 0.0 : none;
     const double *rel = recon_bound_per_voxel(b, p);
     for (size_t v = 0; b->done && v < voxels; ++v) {
-      if (isnan(rel[v]) || !(rel[v] >= 0.0)) continue; /* no bound; an infinite one misses surely */
+      if (!(rel[v] >= 0.0)) continue; /* NaN: no bound; an infinite one misses surely */
       /* P(|z| > max_rel / bound), z standard normal; erfc(+inf) = 0 at a
        * zero bound, erfc(0) = 1 at an infinite one. */
       double miss = erfc(max_rel / rel[v] / sqrt(2.0));
