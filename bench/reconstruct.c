@@ -123,6 +123,58 @@ static void remove_tree(const char *dir) {
   rmdir(dir);
 }
 
+/* A volume's times: simulation, optimisation, all; iterations of all stages. */
+typedef struct volume_times {
+  double simulate, optimise, total;
+  int64_t iterations;
+} volume_times_t;
+
+/* Prints a volume's figures (DESIGN §8), each line prefixed by `tag`: its
+ * times, then per parameter its errors (e NULL: no reconstruction), its
+ * bound and what an efficient recovery would score. */
+static void print_figures(const char *tag, const volume_times_t *t, const recon_errors_t *e,
+                          const recon_bound_t *bound, const recon_efficient_t *eff) {
+  printf("%s simulate_seconds=%.3f\n", tag, t->simulate);
+  if (e) printf("%s optimisation_seconds=%.3f\n", tag, t->optimise);
+  printf("%s total_seconds=%.3f\n", tag, t->total);
+  if (e) {
+    printf("%s seconds_per_iteration=%.5f\n", tag, t->iterations > 0 ? t->optimise / (double)t->iterations : 0.0);
+  }
+  for (int p = 0; e && p < 3; ++p) {
+    printf("%s param=%s mean_rel_error=%.4f max_rel_error=%.4f\n", tag, hetinv_param_name(p), e->mean[p],
+           e->max[p]);
+  }
+  for (int p = 0; bound->done && p < 3; ++p) {
+    printf("%s param=%s mean_rel_bound=%.4f max_rel_bound=%.4f", tag, hetinv_param_name(p), bound->mean[p],
+           bound->max[p]);
+    if (e && e->has_bound) {
+      printf(" max_error_over_bound=%.3g rms_error_over_bound=%.3g voxels_over_2x_bound=%zu/%zu",
+             e->max_over_bound[p], e->rms_over_bound[p], e->over_2x_bound[p], e->bounded[p]);
+    }
+    printf("%s\n", bound->positive_definite ? "" : " (estimated F not positive definite)");
+    if (!isnan(eff->pass)) {
+      printf("%s param=%s efficient_voxels_over_max=%.3f\n", tag, hetinv_param_name(p), eff->over_max[p]);
+    }
+  }
+  if (!isnan(eff->pass)) {
+    printf("%s efficient_pass_at_least=%.3f efficient_pass_at_most=%.3f\n", tag, eff->pass, eff->pass_at_most);
+  }
+}
+
+/* 3, after naming each parameter above `require` (mean, max), or 0; 0
+ * without a reconstruction (e NULL) or a requirement. */
+static int check_required(const char *tag, const recon_errors_t *e, const double require[2]) {
+  int status = 0;
+  for (int p = 0; e && require[0] > 0.0 && p < 3; ++p) {
+    if (e->mean[p] > require[0] || e->max[p] > require[1]) {
+      fprintf(stderr, PROG ": %s: %s: mean/max relative error %.4f/%.4f above the required %.4f/%.4f\n", tag,
+              hetinv_param_name(p), e->mean[p], e->max[p], require[0], require[1]);
+      status = 3;
+    }
+  }
+  return status;
+}
+
 /* Runs one volume of the scene end to end into sc->output; prints its
  * figures prefixed by `tag`. 0 on success, 1 on a library error, 3 when
  * `require` is set and missed. */
@@ -191,38 +243,9 @@ static int run_volume(recon_scene_t *sc, const char *tag, const double require[2
   }
   if (status == 0) {
     *seconds = recon_now() - t0;
-    printf("%s simulate_seconds=%.3f\n", tag, t_sim);
-    if (rec) printf("%s optimisation_seconds=%.3f\n", tag, t_opt);
-    printf("%s total_seconds=%.3f\n", tag, *seconds);
-    if (rec) {
-      printf("%s seconds_per_iteration=%.5f\n", tag, all_iterations > 0 ? t_opt / (double)all_iterations : 0.0);
-    }
-    for (int p = 0; rec && p < 3; ++p) {
-      printf("%s param=%s mean_rel_error=%.4f max_rel_error=%.4f\n", tag, hetinv_param_name(p), e->mean[p],
-             e->max[p]);
-    }
-    for (int p = 0; bound.done && p < 3; ++p) {
-      printf("%s param=%s mean_rel_bound=%.4f max_rel_bound=%.4f", tag, hetinv_param_name(p), bound.mean[p],
-             bound.max[p]);
-      if (e->has_bound) {
-        printf(" max_error_over_bound=%.3g rms_error_over_bound=%.3g voxels_over_2x_bound=%zu/%zu",
-               e->max_over_bound[p], e->rms_over_bound[p], e->over_2x_bound[p], e->bounded[p]);
-      }
-      printf("%s\n", bound.positive_definite ? "" : " (estimated F not positive definite)");
-      if (!isnan(eff->pass)) {
-        printf("%s param=%s efficient_voxels_over_max=%.3f\n", tag, hetinv_param_name(p), eff->over_max[p]);
-      }
-    }
-    if (!isnan(eff->pass)) {
-      printf("%s efficient_pass_at_least=%.3f efficient_pass_at_most=%.3f\n", tag, eff->pass, eff->pass_at_most);
-    }
-    for (int p = 0; rec && require[0] > 0.0 && p < 3; ++p) {
-      if (e->mean[p] > require[0] || e->max[p] > require[1]) {
-        fprintf(stderr, PROG ": %s: %s: mean/max relative error %.4f/%.4f above the required %.4f/%.4f\n",
-                tag, hetinv_param_name(p), e->mean[p], e->max[p], require[0], require[1]);
-        status = 3;
-      }
-    }
+    const volume_times_t times = {t_sim, t_opt, *seconds, all_iterations};
+    print_figures(tag, &times, rec ? e : NULL, &bound, eff);
+    status = check_required(tag, rec ? e : NULL, require);
   }
   recon_bound_release(&bound);
   hetinv_medium_destroy(&rec);
