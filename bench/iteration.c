@@ -148,7 +148,7 @@ int main(int argc, char **argv) {
     /* A whole iteration: the optimizer on the full set, minibatches of the
      * scene's size, one stage at the voxel grid. */
     hetinv_optimizer_t *opt = NULL;
-    hetinv_stage_t stage = {sizeof stage, map, (int32_t)iterations, NULL, NULL, 0.0, 0, 0.0, 0.0};
+    hetinv_stage_t stage = {sizeof stage, map, (int32_t)iterations, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
     hetinv_result_t r = hetinv_optimizer_create(ctx, im.set, truth, &opt);
     for (int p = 0; r == HETINV_SUCCESS && p < 3; ++p) r = hetinv_optimizer_set_bounds(opt, p, sc.bounds_lo[p], sc.bounds_hi[p]);
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_MINIBATCH, sc.minibatch);

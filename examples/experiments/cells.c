@@ -94,6 +94,9 @@ bool experiment_cell_key(const recon_scene_t *sc, char *key, size_t key_size) {
   if (sc->settle_epsilon != 0.0) {
     key_append(key, key_size, " settle_epsilon=%.17g settle_fraction=%.17g", sc->settle_epsilon, sc->settle_fraction);
   }
+  if (sc->settle_photons != 0.0) { /* after settle_epsilon's, so the keys of cells without it stand */
+    key_append(key, key_size, " settle_photons=%.17g settle_fraction=%.17g", sc->settle_photons, sc->settle_fraction);
+  }
   if (sc->coordinates != HETINV_COORDINATES_NATIVE) {
     key_append(key, key_size, " coordinates=%s", recon_coordinate_names[sc->coordinates]);
   }

@@ -161,10 +161,9 @@ static void write_reconstruct_scene(FILE *f, const recon_scene_t *sc, const reco
   put_member(f, ", ", "epsilon", sc->epsilon);
   if (sc->epsilon_start > 0.0) put_member(f, ", ", "epsilon_start", sc->epsilon_start);
   if (sc->coarse_epsilon_start > 0.0) put_member(f, ", ", "coarse_epsilon_start", sc->coarse_epsilon_start);
-  if (sc->settle_epsilon > 0.0) {
-    put_member(f, ", ", "settle_epsilon", sc->settle_epsilon);
-    put_member(f, ", ", "settle_fraction", sc->settle_fraction);
-  }
+  if (sc->settle_epsilon > 0.0) put_member(f, ", ", "settle_epsilon", sc->settle_epsilon);
+  if (sc->settle_photons > 0.0) put_member(f, ", ", "settle_photons", sc->settle_photons);
+  if (sc->settle_fraction > 0.0) put_member(f, ", ", "settle_fraction", sc->settle_fraction);
   put_member(f, ", ", "decay", sc->decay);
   put_member(f, ",\n                ", "learning_rate", sc->learning_rate);
   if (sc->method == HETINV_METHOD_ADAM) {

@@ -159,8 +159,9 @@ typedef struct recon_scene {
   /* The ε schedules: ADADELTA's ε, and the other methods' learning_rate scaled by their ε over epsilon. */
   double epsilon_start;         /* the finest stage's ADADELTA ε at its start (0: epsilon throughout) */
   double coarse_epsilon_start;  /* each coarser stage's ADADELTA ε at its start (0: epsilon throughout) */
-  double settle_epsilon;        /* the finest stage's ADADELTA ε over its last settle_fraction (0: none) */
+  double settle_epsilon;        /* the finest stage's ADADELTA ε over its last settle_fraction (0: its own) */
   double settle_fraction;
+  double settle_photons;        /* its photons, × photons (0: none; hetinv_stage_t.settle_photons) */
   int32_t average_window;       /* 0: half the finest stage's iterations, or its settling part */
   int32_t coarse_average_window; /* each coarse stage's hand-on window; 0: average_window's */
   double time_budget;

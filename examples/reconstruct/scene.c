@@ -420,7 +420,7 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   int got = jr_object(jr, root, "", "optimizer", JR_OPTIONAL, &o);
   if (got <= 0) return got;
   static const char *const allowed[] = {"method", "coordinates", "iterations", "coarse_fraction", "minibatch", "epsilon",
-                                        "epsilon_start", "coarse_epsilon_start", "settle_epsilon", "settle_fraction", "decay", "learning_rate", "beta1", "beta2", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
+                                        "epsilon_start", "coarse_epsilon_start", "settle_epsilon", "settle_fraction", "settle_photons", "decay", "learning_rate", "beta1", "beta2", "average_window", "coarse_average_window", "time_budget", "smoothness", "multiscale", "box_margin", "bounds",
                                         "init", "levels", "layerwise_layers", "stage_results", NULL};
   if (jr_check_object(jr, o, "optimizer", allowed) < 0) return -1;
   if (jr_choice(jr, o, "optimizer", "method", JR_OPTIONAL, recon_method_names, &sc->method) < 0) return -1;
@@ -439,12 +439,19 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (read_epsilon_start(jr, o, "coarse_epsilon_start", &sc->coarse_epsilon_start) < 0) return -1;
   if (read_epsilon_start(jr, o, "settle_epsilon", &sc->settle_epsilon) < 0) return -1;
   if (jr_number(jr, o, "optimizer", "settle_fraction", JR_OPTIONAL, &sc->settle_fraction) < 0) return -1;
-  if (sc->settle_epsilon > 0.0 && !(sc->settle_fraction > 0.0 && sc->settle_fraction < 1.0)) {
-    return jr_fail(jr, "optimizer.settle_fraction", "is %g; with optimizer.settle_epsilon it must be > 0 and below 1",
-                   sc->settle_fraction);
+  if (jr_number(jr, o, "optimizer", "settle_photons", JR_OPTIONAL, &sc->settle_photons) < 0) return -1;
+  if (!(sc->settle_photons == 0.0 || (sc->settle_photons >= 1.0 && sc->settle_photons <= 1e6))) {
+    return jr_fail(jr, "optimizer.settle_photons", "is %g; it must be 0 (none) or from 1 to 1e6 (times the photons)",
+                   sc->settle_photons);
   }
-  if (sc->settle_epsilon == 0.0 && sc->settle_fraction != 0.0) {
-    return jr_fail(jr, "optimizer.settle_fraction", "is %g, but optimizer.settle_epsilon, the epsilon it runs at, is not set",
+  bool settles = sc->settle_epsilon > 0.0 || sc->settle_photons > 0.0;
+  if (settles && !(sc->settle_fraction > 0.0 && sc->settle_fraction < 1.0)) {
+    return jr_fail(jr, "optimizer.settle_fraction",
+                   "is %g; with optimizer.settle_epsilon or settle_photons it must be > 0 and below 1", sc->settle_fraction);
+  }
+  if (!settles && sc->settle_fraction != 0.0) {
+    return jr_fail(jr, "optimizer.settle_fraction",
+                   "is %g, but neither optimizer.settle_epsilon nor settle_photons, what that part runs at, is set",
                    sc->settle_fraction);
   }
   if (jr_number(jr, o, "optimizer", "decay", JR_OPTIONAL, &sc->decay) < 0) return -1;

@@ -113,9 +113,9 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, const recon_scene_t *s
   /* Window 0: average the second half of the finest stage, past its
    * transient (a window longer than the stage would reach back to it), or
    * its settling part (the finest stage's own window, 0, then means that
-   * part: hetinv_stage_t.settle_epsilon). */
+   * part: hetinv_stage_t.settle_epsilon, settle_photons). */
   int64_t window = sc->average_window > 0 ? sc->average_window : sc->iterations / 2;
-  if (sc->average_window == 0 && sc->settle_epsilon > 0.0) {
+  if (sc->average_window == 0 && sc->settle_fraction > 0.0) {
     window = (int64_t)llround(sc->settle_fraction * (double)sc->iterations);
   }
   window = window < 1 ? 1 : (window > 4096 ? 4096 : window);
@@ -291,7 +291,8 @@ hetinv_result_t recon_solve(hetinv_context_t *ctx, const recon_scene_t *sc, reco
     hetinv_stage_t stage = {sizeof stage, maps[l], (int32_t)it, NULL, NULL,
                             finest ? sc->epsilon_start : sc->coarse_epsilon_start,
                             finest ? 0 : sc->coarse_average_window,
-                            finest ? sc->settle_epsilon : 0.0, finest ? sc->settle_fraction : 0.0};
+                            finest ? sc->settle_epsilon : 0.0, finest ? sc->settle_fraction : 0.0,
+                            finest ? sc->settle_photons : 0.0};
     if (r == HETINV_SUCCESS) r = hetinv_optimizer_add_stage(opt, &stage);
     if (r == HETINV_SUCCESS && stages < HETINV_MAX_STAGES) lengths[stages++] = it;
   }

@@ -243,17 +243,29 @@ typedef struct hetinv_stage {
   int32_t average_window;
   /** ADADELTA's ε over the stage's last @c settle_fraction of its
    *  iterations, relative as HETINV_OPTIMIZER_EPSILON (in [1e-12, 1]);
-   *  0 = none. Large steps approach, small ones settle: a stochastic
-   *  step's iterates scatter about a point that is off the loss's minimum
+   *  0 = the stage's own ε there (a settling part of @c settle_photons
+   *  alone). Large steps approach, small ones settle: a stochastic step's
+   *  iterates scatter about a point that is off the loss's minimum
    *  by an amount that grows with the step where the loss is not
    *  quadratic, and averaging them does not remove that offset. With
    *  @c average_window 0 the stage's result averages its settling
    *  iterates (at most HETINV_OPTIMIZER_AVERAGE_WINDOW of them). Added in 0.2. */
   double settle_epsilon;
-  /** The fraction of the stage's iterations, in (0, 1), that run at
-   *  @c settle_epsilon: the last round(settle_fraction × iterations).
-   *  Required with @c settle_epsilon, 0 without it. Added in 0.2. */
+  /** The fraction of the stage's iterations, in (0, 1), that settle (at
+   *  @c settle_epsilon, with @c settle_photons): the last
+   *  round(settle_fraction × iterations).
+   *  Required with @c settle_epsilon or @c settle_photons, 0 without
+   *  both. Added in 0.2. */
   double settle_fraction;
+  /** The estimator's photons per emitter over the settling part, as a
+   *  multiple of its HETINV_ESTIMATOR_PHOTONS (rounded to a whole count;
+   *  in [1, 1e6]); 0 = that count, without a settling part of its own. A Monte Carlo budget that grows
+   *  as the step settles: the offset @c settle_epsilon describes shrinks
+   *  with the gradient's noise as well as with the step, and more photons
+   *  do not slow the approach a smaller step slows. The estimator's own
+   *  tunable is left as it was. With this alone the settling part runs at
+   *  the stage's ε. Added in 0.3. */
+  double settle_photons;
 } hetinv_stage_t;
 
 /** The size of the first hetinv_stage_t (without @c epsilon_start and
@@ -262,6 +274,9 @@ typedef struct hetinv_stage {
 /** The size of the second hetinv_stage_t (without @c settle_epsilon and
  *  @c settle_fraction), which hetinv_optimizer_add_stage() still accepts. */
 #define HETINV_STAGE_SIZE_V2 (offsetof(hetinv_stage_t, settle_epsilon))
+/** The size of the third hetinv_stage_t (without @c settle_photons), which
+ *  hetinv_optimizer_add_stage() still accepts. */
+#define HETINV_STAGE_SIZE_V3 (offsetof(hetinv_stage_t, settle_photons))
 
 /**
  * @brief What the progress callback is told after every iteration.

@@ -87,6 +87,11 @@ void hv_ckpt_fingerprint(const hetinv_optimizer_t *opt, hv_ckpt_fingerprint_t *f
       h = hv_fnv1a(h, &st->settle_epsilon, sizeof st->settle_epsilon);
       h = hv_fnv1a(h, &st->settle_fraction, sizeof st->settle_fraction);
     }
+    if (st->settle_photons != 0.0) {
+      h = hv_fnv1a(h, "p", 1);
+      h = hv_fnv1a(h, &st->settle_photons, sizeof st->settle_photons);
+      if (st->settle_epsilon == 0.0) h = hv_fnv1a(h, &st->settle_fraction, sizeof st->settle_fraction);
+    }
     f->stage_masks[s] = h;
   }
   memcpy(f->param, opt->param, sizeof f->param);

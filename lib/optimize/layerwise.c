@@ -129,7 +129,7 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_layerwise_stages(hetinv_optimize
       frozen[i] = layer[cell] != n;
     }
     stage_value_mask(set, layer_thickness, n, mask);
-    hetinv_stage_t stage = {sizeof stage, map, iterations, frozen, mask, 0.0, 0, 0.0, 0.0};
+    hetinv_stage_t stage = {sizeof stage, map, iterations, frozen, mask, 0.0, 0, 0.0, 0.0, 0.0};
     r = hetinv_optimizer_add_stage(optimizer, &stage);
   }
   /* All layers or none. */

@@ -126,7 +126,7 @@ static void mean_ratio_step(const method_t *m, hetinv_optimizer_t *opt, size_t i
 double hv_stage_epsilon(const hetinv_optimizer_t *opt) {
   const double end = opt->param[HETINV_OPTIMIZER_EPSILON];
   const hv_stage_t *st = &opt->stages[opt->stage];
-  if (opt->stage_iteration >= hv_stage_settle_from(st)) return st->settle_epsilon;
+  if (st->settle_epsilon > 0.0 && opt->stage_iteration >= hv_stage_settle_from(st)) return st->settle_epsilon;
   if (st->epsilon_start == 0.0) return end;
   /* Linear from epsilon_start at the stage's first step to the tunable at
    * its middle; the second half, which the result averages, at the tunable. */

@@ -209,18 +209,21 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
   const hetinv_context_t *ctx = optimizer->ctx;
   HV_CHECK_NULL(ctx, stage);
   if (stage->size != HETINV_STAGE_SIZE_V1 && stage->size != HETINV_STAGE_SIZE_V2 &&
-      stage->size != sizeof(hetinv_stage_t)) {
+      stage->size != HETINV_STAGE_SIZE_V3 && stage->size != sizeof(hetinv_stage_t)) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "stage->size is %zu; it must be sizeof(hetinv_stage_t) = %zu (or %zu or %zu, the earlier versions')",
+                   "stage->size is %zu; it must be sizeof(hetinv_stage_t) = %zu (or %zu, %zu or %zu, the earlier "
+                   "versions')",
                    stage->size, sizeof(hetinv_stage_t), (size_t)HETINV_STAGE_SIZE_V1,
-                   (size_t)HETINV_STAGE_SIZE_V2);
+                   (size_t)HETINV_STAGE_SIZE_V2, (size_t)HETINV_STAGE_SIZE_V3);
   }
   /* Members past the caller's size read as 0. */
-  const bool v2 = stage->size >= HETINV_STAGE_SIZE_V2, v3 = stage->size == sizeof(hetinv_stage_t);
+  const bool v2 = stage->size >= HETINV_STAGE_SIZE_V2, v3 = stage->size >= HETINV_STAGE_SIZE_V3,
+             v4 = stage->size == sizeof(hetinv_stage_t);
   const double epsilon_start = v2 ? stage->epsilon_start : 0.0;
   const int32_t average_window = v2 ? stage->average_window : 0;
   const double settle_epsilon = v3 ? stage->settle_epsilon : 0.0;
   const double settle_fraction = v3 ? stage->settle_fraction : 0.0;
+  const double settle_photons = v4 ? stage->settle_photons : 0.0;
   if (average_window < 0) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: average_window is %d; it must be >= 0",
                    (int)optimizer->stage_count, (int)average_window);
@@ -233,10 +236,16 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: settle_epsilon is %g; it must be 0 or in [1e-12, 1]",
                    (int)optimizer->stage_count, settle_epsilon);
   }
-  if (settle_epsilon == 0.0 ? settle_fraction != 0.0 : !(settle_fraction > 0.0 && settle_fraction < 1.0)) {
+  if (!(settle_photons == 0.0 || (settle_photons >= 1.0 && settle_photons <= 1e6))) {
+    return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT, "stage %d: settle_photons is %g; it must be 0 or in [1, 1e6]",
+                   (int)optimizer->stage_count, settle_photons);
+  }
+  const bool settles = settle_epsilon != 0.0 || settle_photons != 0.0;
+  if (!settles ? settle_fraction != 0.0 : !(settle_fraction > 0.0 && settle_fraction < 1.0)) {
     return HV_FAIL(ctx, HETINV_ERROR_INVALID_ARGUMENT,
-                   "stage %d: settle_fraction is %g; it must be in (0, 1) with a settle_epsilon, 0 without (settle_epsilon is %g)",
-                   (int)optimizer->stage_count, settle_fraction, settle_epsilon);
+                   "stage %d: settle_fraction is %g; it must be in (0, 1) with a settle_epsilon or settle_photons, "
+                   "0 without (settle_epsilon is %g, settle_photons %g)",
+                   (int)optimizer->stage_count, settle_fraction, settle_epsilon, settle_photons);
   }
   if (stage->map == NULL) return HV_FAIL(ctx, HETINV_ERROR_NULL_ARGUMENT, "'stage->map' is NULL");
   if (!hv_param_map_fits(stage->map, optimizer->initial)) {
@@ -266,7 +275,8 @@ HETINV_API hetinv_result_t hetinv_optimizer_add_stage(hetinv_optimizer_t *optimi
   }
   hv_stage_t s = {.map = stage->map, .k = hetinv_param_map_size(stage->map), .requested = stage->iterations,
                   .epsilon_start = epsilon_start, .average_window = average_window,
-                  .settle_epsilon = settle_epsilon, .settle_fraction = settle_fraction};
+                  .settle_epsilon = settle_epsilon, .settle_fraction = settle_fraction,
+                  .settle_photons = settle_photons};
   bool failed = false;
   s.frozen = copy_bytes(ctx, stage->frozen, s.k, &failed);
   s.value_mask = copy_bytes(ctx, stage->value_mask, hetinv_measurements_value_count(optimizer->set), &failed);

@@ -20,7 +20,10 @@ typedef struct hv_stage {
   uint8_t *value_mask; /* value_count bytes or NULL */
   double epsilon_start; /* ADADELTA's ε at the stage's start (falls to the tunable); 0 = the tunable */
   int32_t average_window; /* the trailing iterates its result averages (at most the ring's); 0 = the ring's */
-  double settle_epsilon, settle_fraction; /* ε over the stage's last fraction; 0 = none */
+  /* The stage's last settle_fraction (0 = no settling part) runs at
+   * settle_epsilon (0 = the stage's ε) and settle_photons × the estimator's
+   * photons (0 = 1×, and no settling part of its own). */
+  double settle_epsilon, settle_fraction, settle_photons;
 } hv_stage_t;
 
 /* Rows of the set grouped by emitter (in order of first use):
@@ -83,10 +86,10 @@ static inline bool hv_entry_log_box(const hetinv_optimizer_t *opt, size_t i) {
   double lo = opt->lo_k[i], hi = opt->hi_k[i];
   return lo > 0.0 && hi > lo && hi < HUGE_VAL;
 }
-/* The first iteration of the stage's settling part at settle_epsilon (the
- * stage's iteration count when it has none). Resolved iterations only. */
+/* The first iteration of the stage's settling part (the stage's iteration
+ * count when it has none). Resolved iterations only. */
 static inline int64_t hv_stage_settle_from(const hv_stage_t *st) {
-  if (st->settle_epsilon == 0.0) return st->iterations;
+  if (st->settle_fraction == 0.0) return st->iterations;
   return st->iterations - (int64_t)llround(st->settle_fraction * (double)st->iterations);
 }
 /* "HETINV_OPTIMIZER_DECAY", ..., for messages. */

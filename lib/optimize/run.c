@@ -85,6 +85,17 @@ static hetinv_result_t next_stage(hetinv_optimizer_t *opt) {
   return HETINV_SUCCESS;
 }
 
+/* The estimator's photons per emitter for this iteration, or a message
+ * naming the stage's settle_photons that asked for a count out of range. */
+static hetinv_result_t set_photons(hetinv_optimizer_t *opt, hetinv_estimator_t *est, double photons) {
+  hetinv_result_t r = hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, photons);
+  if (r == HETINV_SUCCESS) return r;
+  return HV_FAIL(opt->ctx, r, "stage %d: settle_photons %g × the estimator's %.17g photons per emitter = %.17g, out of "
+                 "HETINV_ESTIMATOR_PHOTONS's range",
+                 (int)opt->stage, opt->stages[opt->stage].settle_photons, opt->est_param[HETINV_ESTIMATOR_PHOTONS],
+                 photons);
+}
+
 /* One iteration on the current stage. */
 static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est, int32_t *picked,
                                int32_t *scratch, double *loss, double *step) {
@@ -106,7 +117,13 @@ static hetinv_result_t iterate(hetinv_optimizer_t *opt, hetinv_estimator_t *est,
   /* Under MPI a rank that failed above must not leave the others waiting
    * in the loss gradient's collectives. */
   r = hv_comm_agree(opt->ctx, r, AGREE_ITERATION, "the step of the run they are at");
+  /* The settling part's photons (hetinv_stage_t.settle_photons), then the
+   * estimator's own count back, the one check_estimator recorded. */
+  const double photons = opt->est_param[HETINV_ESTIMATOR_PHOTONS];
+  const bool more = st->settle_photons != 0.0 && opt->stage_iteration >= hv_stage_settle_from(st);
+  if (r == HETINV_SUCCESS && more) r = set_photons(opt, est, fmax(1.0, round(photons * st->settle_photons)));
   if (r == HETINV_SUCCESS) r = hetinv_estimator_loss_gradient(est, medium, sub, st->map, loss, NULL, opt->grad, opt->k);
+  if (more) hetinv_estimator_set_param(est, HETINV_ESTIMATOR_PHOTONS, photons);
   hetinv_measurements_destroy(&sub);
   hetinv_medium_destroy(&medium);
   if (r != HETINV_SUCCESS) return r;

@@ -109,7 +109,7 @@ static hetinv_optimizer_t *make_optimizer(int c) {
   ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_MINIBATCH, c >= 2 ? 1 : 0), "minibatch");
   const hetinv_param_map_t *maps[2] = {P.coarse, P.identity};
   for (int s = 0; s < 2; ++s) {
-    hetinv_stage_t st = {sizeof st, maps[s], 4, NULL, NULL, 0.0, 0, 0.0, 0.0};
+    hetinv_stage_t st = {sizeof st, maps[s], 4, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
     ok(hetinv_optimizer_add_stage(opt, &st), "stage");
   }
   return opt;

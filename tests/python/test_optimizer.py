@@ -165,9 +165,13 @@ class Configuration(unittest.TestCase):
             opt = hetinv.Optimizer(ctx, ms, initial, average_window=4)
             with self.assertRaisesRegex(hetinv.InvalidArgumentError, "settle_fraction is 1"):
                 opt.add_stage(pmap, iterations=4, settle_epsilon=0.001, settle_fraction=1.0)
+            with self.assertRaisesRegex(hetinv.InvalidArgumentError, "settle_photons is 0.5"):
+                opt.add_stage(pmap, iterations=4, settle_photons=0.5, settle_fraction=0.5)
             opt.add_stage(pmap, iterations=4, epsilon_start=0.05, settle_epsilon=0.001, settle_fraction=0.5)
+            opt.add_stage(pmap, iterations=4, settle_photons=2.0, settle_fraction=0.5)
             self.assertEqual(opt.run(est), "completed")
-            self.assertEqual(len(opt.losses()), 4)
+            self.assertEqual(len(opt.losses()), 8)
+            self.assertEqual(est.get_param("photons"), 50)  # the estimator's own count, left as it was
 
     def test_layerwise_stages(self):
         with hetinv.Context(seed=5, threads=1) as ctx:

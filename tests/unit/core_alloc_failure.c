@@ -553,7 +553,7 @@ static hetinv_result_t configure(hetinv_optimizer_t *opt, hetinv_param_map_t *co
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_MINIBATCH, 1);
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, 100);
   for (int i = 0; i < 2 && r == HETINV_SUCCESS; ++i) {
-    hetinv_stage_t st = {sizeof st, maps[i], 2, NULL, NULL, 0.0, 0, 0.0, 0.0};
+    hetinv_stage_t st = {sizeof st, maps[i], 2, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
     r = hetinv_optimizer_add_stage(opt, &st);
   }
   if (r == HETINV_SUCCESS && checkpoint) r = hetinv_optimizer_set_checkpoint(opt, checkpoint);
@@ -693,7 +693,7 @@ static bool scenario_layerwise(void) {
   STEP(hetinv_optimizer_create(ctx, set, sc.medium, &opt));
   uint8_t frozen[4] = {0, 1, 0, 0}, mask[VALUES] = {0};
   for (int i = 0; i < VALUES; i += 2) mask[i] = 1;
-  hetinv_stage_t st = {sizeof st, map, 1, frozen, mask, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t st = {sizeof st, map, 1, frozen, mask, 0.0, 0, 0.0, 0.0, 0.0};
   STEP(hetinv_optimizer_add_stage(opt, &st));
   adding = true;
   STEP(hetinv_optimizer_add_layerwise_stages(opt, map, 0.5, 2, 1));

@@ -446,7 +446,7 @@ static void test_optimizer(fixture_t *f) {
   EXPECT_FAIL(hetinv_optimizer_result, (opt, NULL));
   double pi[24];
   EXPECT_FAIL(hetinv_optimizer_get_pi, (opt, 0, pi, 24));
-  hetinv_stage_t one = {sizeof one, f->map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t one = {sizeof one, f->map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &one));
   /* read_file, then the format checks */
   EXPECT_FAIL(hetinv_optimizer_resume, (opt, f->bogus));

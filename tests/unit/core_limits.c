@@ -212,7 +212,7 @@ static void optimizer_stage_count_is_bounded(void **state) {
                 hetinv_optimizer_add_layerwise_stages(opt, map, 0.1, HETINV_MAX_STAGES + 1, 1));
   assert_message_contains("layers is 257; it must be >= 1 and, with the 0 stages already there, "
                           "at most HETINV_MAX_STAGES (256)");
-  hetinv_stage_t stage = {sizeof stage, map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t stage = {sizeof stage, map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   for (int i = 0; i < HETINV_MAX_STAGES; ++i) assert_ok(hetinv_optimizer_add_stage(opt, &stage));
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &stage));
   assert_message_contains("the schedule already has 256 stages, HETINV_MAX_STAGES");

@@ -319,7 +319,7 @@ static double recover(hetinv_context_t *ctx, const hetinv_medium_t *initial,
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(ctx, set, initial, &opt));
   assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 0.5, 10.0));
-  hetinv_stage_t st = {sizeof st, map, 30, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t st = {sizeof st, map, 30, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, 10));
   hetinv_estimator_t *est = NULL;

@@ -162,7 +162,7 @@ static void configuration_is_frozen_once_run(void **state) {
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 3));
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 0, 5));
   assert_message_contains("sigma_s");
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_result(HETINV_ERROR_INVALID_STATE, hetinv_optimizer_add_stage(opt, &st));
   double v = 0;
   assert_ok(hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, &v));
@@ -192,7 +192,7 @@ static void stage_and_create_errors(void **state) {
   hetinv_medium_destroy(&other_ior);
 
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t st = {sizeof st - 1, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
   assert_message_contains("size");
   st.size = sizeof st;
@@ -265,7 +265,7 @@ static void null_arguments_are_refused(void **state) {
   s.iterations[0] = 1;
   opt = make_optimizer(p, &s);
   double v = 0, pi[1];
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_set_param(NULL, HETINV_OPTIMIZER_DECAY, 0.5));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(NULL, HETINV_OPTIMIZER_DECAY, &v));
   assert_result(HETINV_ERROR_NULL_ARGUMENT, hetinv_optimizer_get_param(opt, HETINV_OPTIMIZER_DECAY, NULL));

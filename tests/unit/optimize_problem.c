@@ -123,7 +123,7 @@ hetinv_result_t configure(hetinv_optimizer_t *opt, const setup_t *s) {
   if (r == HETINV_SUCCESS) r = hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_CHECKPOINT_INTERVAL, s->interval);
   for (int i = 0; r == HETINV_SUCCESS && i < s->stages; ++i) {
     hetinv_stage_t st = {sizeof st, s->maps[i], s->iterations[i], NULL, NULL, s->epsilon_start[i],
-                         s->stage_window[i], s->settle_epsilon[i], s->settle_fraction[i]};
+                         s->stage_window[i], s->settle_epsilon[i], s->settle_fraction[i], s->settle_photons[i]};
     r = hetinv_optimizer_add_stage(opt, &st);
   }
   return r;

@@ -71,6 +71,7 @@ typedef struct setup {
   double epsilon_start[2]; /* each stage's ε at its start; 0 = the tunable */
   int32_t stage_window[2];  /* each stage's averaging window; 0 = the tunable */
   double settle_epsilon[2], settle_fraction[2]; /* each stage's settling part; 0 = none */
+  double settle_photons[2];                      /* its photons, × the estimator's; 0 = none */
 } setup_t;
 
 /* Everything a run leaves: π (last and averaged), losses, the result medium. */

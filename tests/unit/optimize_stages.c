@@ -82,7 +82,7 @@ static void stages_run_their_counts_with_right_progress(void **state) {
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_ITERATIONS, 4));
-  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL, 0.0, 0, 0.0, 0.0}, b = {sizeof b, p->identity, 0, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t a = {sizeof a, p->coarse, 3, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0}, b = {sizeof b, p->identity, 0, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &a));
   assert_ok(hetinv_optimizer_add_stage(opt, &b));
   pi_log_t *log = calloc(1, sizeof *log);
@@ -126,7 +126,7 @@ static void iterations_default_is_100(void **state) {
   assert_ok(hetinv_estimator_set_param(est, HETINV_ESTIMATOR_BATCHES, 2));
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 0, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   stopper_t s = {.stop_at = -1};
   assert_ok(hetinv_optimizer_set_progress(opt, stop_at, &s));
@@ -151,7 +151,7 @@ static void a_plateau_ends_a_stage_early(void **state) {
   /* Tolerance 1: no decrease can beat it, so each stage ends after 2·window. */
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 3));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 1));
-  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL, 0.0, 0, 0.0, 0.0}, b = {sizeof b, p->identity, 50, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t a = {sizeof a, p->coarse, 50, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0}, b = {sizeof b, p->identity, 50, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &a));
   assert_ok(hetinv_optimizer_add_stage(opt, &b));
   pi_log_t *log = calloc(1, sizeof *log);
@@ -174,7 +174,7 @@ static void a_plateau_ends_a_stage_early(void **state) {
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_WINDOW, 2));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_PLATEAU_TOLERANCE, 0));
   uint8_t *mask = calloc(p->count, 1);
-  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t c = {sizeof c, p->coarse, 50, NULL, mask, 0.0, 0, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &c));
   free(mask);
   assert_ok(hetinv_optimizer_run(opt, p->est, &why));
@@ -260,7 +260,7 @@ static void a_stage_epsilon_start_changes_only_the_first_half(void **state) {
   setup_t t = coarse_setup(p);
   t.stages = 0;
   hetinv_optimizer_t *opt = make_optimizer(p, &t);
-  hetinv_stage_t v1 = {HETINV_STAGE_SIZE_V1, p->coarse, 8, NULL, NULL, 0.05, 5, 0.0, 0.0};
+  hetinv_stage_t v1 = {HETINV_STAGE_SIZE_V1, p->coarse, 8, NULL, NULL, 0.05, 5, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &v1));
   assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
   capture(opt, 1, &o[3]);
@@ -269,13 +269,13 @@ static void a_stage_epsilon_start_changes_only_the_first_half(void **state) {
   const double bad[3] = {-0.01, 1.5, (double)NAN};
   for (int i = 0; i < 3; ++i) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, bad[i], 0, 0.0, 0.0};
+    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, bad[i], 0, 0.0, 0.0, 0.0};
     assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
     assert_message_contains("epsilon_start");
     hetinv_optimizer_destroy(&opt);
   }
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, -1, 0.0, 0.0};
+  hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, -1, 0.0, 0.0, 0.0};
   assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
   assert_message_contains("average_window is -1");
   hetinv_optimizer_destroy(&opt);
@@ -317,7 +317,7 @@ static void a_stage_settles_at_its_own_epsilon(void **state) {
   setup_t t = coarse_setup(p);
   t.stages = 0;
   opt = make_optimizer(p, &t);
-  hetinv_stage_t v2 = {HETINV_STAGE_SIZE_V2, p->coarse, 8, NULL, NULL, 0.0, 0, -5.0, 7.0};
+  hetinv_stage_t v2 = {HETINV_STAGE_SIZE_V2, p->coarse, 8, NULL, NULL, 0.0, 0, -5.0, 7.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &v2));
   assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
   capture(opt, 1, &o[1]);
@@ -330,11 +330,81 @@ static void a_stage_settles_at_its_own_epsilon(void **state) {
       {0.0, 0.5, "settle_fraction is 0.5"}};
   for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
-    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, bad[i].epsilon, bad[i].fraction};
+    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, bad[i].epsilon, bad[i].fraction, 0.0};
     assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
     assert_message_contains(bad[i].named);
     hetinv_optimizer_destroy(&opt);
   }
+  free(o);
+}
+
+/* The last photons of the estimator's render (hetinv_render_stats_t). */
+static uint64_t last_render_photons(const hetinv_estimator_t *est) {
+  hetinv_render_stats_t st = {.size = sizeof st};
+  assert_ok(hetinv_estimator_get_stats(est, &st));
+  return st.photons;
+}
+
+/* A settling part of settle_photons alone: at 1× it runs bitwise as a
+ * stage without one; at 2× its renders trace twice the photons, the run
+ * moves, and the estimator's own count is left as it was; a caller built
+ * against the third hetinv_stage_t passes its smaller size and the member
+ * is not read; bad values, and a count past the estimator's range, are
+ * refused naming settle_photons. */
+static void a_stage_settles_with_more_photons(void **state) {
+  const problem_t *p = *state;
+  outcome_t *o = calloc(3, sizeof *o);
+  setup_t s = coarse_setup(p);
+  double photons = 0.0;
+  assert_ok(hetinv_estimator_get_param(p->est, HETINV_ESTIMATOR_PHOTONS, &photons));
+  reference_run(p, &s, 1, &o[0]);
+  uint64_t traced = last_render_photons(p->est);
+  assert_true(traced > 0);
+  s.settle_photons[0] = 1.0;
+  s.settle_fraction[0] = 3.0 / 8; /* 3 iterates: the ring's window */
+  reference_run(p, &s, 1, &o[1]);
+  assert_same_outcome(&o[0], &o[1]);
+  s.settle_photons[0] = 2.0;
+  reference_run(p, &s, 1, &o[2]);
+  assert_true(memcmp(o[0].pi, o[2].pi, sizeof o[0].pi) != 0);
+  assert_true(last_render_photons(p->est) == 2 * traced);
+  double after = 0.0;
+  assert_ok(hetinv_estimator_get_param(p->est, HETINV_ESTIMATOR_PHOTONS, &after));
+  assert_true(after == photons);
+  /* The third version's size: settle_photons is past it, unread. */
+  setup_t t = coarse_setup(p);
+  t.stages = 0;
+  hetinv_optimizer_t *opt = make_optimizer(p, &t);
+  hetinv_stage_t v3 = {HETINV_STAGE_SIZE_V3, p->coarse, 8, NULL, NULL, 0.0, 0, 0.0, 0.0, -3.0};
+  assert_ok(hetinv_optimizer_add_stage(opt, &v3));
+  assert_ok(hetinv_optimizer_run(opt, p->est, NULL));
+  capture(opt, 1, &o[1]);
+  hetinv_optimizer_destroy(&opt);
+  assert_same_outcome(&o[0], &o[1]);
+  const struct { double photons, fraction; const char *named; } bad[] = {
+      {0.5, 0.5, "settle_photons is 0.5"}, {2e6, 0.5, "settle_photons is 2e+06"},
+      {(double)NAN, 0.5, "settle_photons is nan"}, {-1.0, 0.5, "settle_photons is -1"},
+      {2.0, 0.0, "settle_fraction is 0"}, {2.0, 1.0, "settle_fraction is 1"}};
+  for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+    assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+    hetinv_stage_t st = {sizeof st, p->coarse, 1, NULL, NULL, 0.0, 0, 0.0, bad[i].fraction, bad[i].photons};
+    assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_add_stage(opt, &st));
+    assert_message_contains(bad[i].named);
+    hetinv_optimizer_destroy(&opt);
+  }
+  /* 1e6 × 1e9 photons is past HETINV_ESTIMATOR_PHOTONS's 2^48 − 1: the
+   * first settling iteration (the stage's first here) is refused, and the
+   * estimator keeps its count. */
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_PHOTONS, 1e9));
+  assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
+  hetinv_stage_t huge = {sizeof huge, p->coarse, 8, NULL, NULL, 0.0, 0, 0.0, 0.99, 1e6};
+  assert_ok(hetinv_optimizer_add_stage(opt, &huge));
+  assert_result(HETINV_ERROR_INVALID_ARGUMENT, hetinv_optimizer_run(opt, p->est, NULL));
+  assert_message_contains("settle_photons 1e+06");
+  hetinv_optimizer_destroy(&opt);
+  assert_ok(hetinv_estimator_get_param(p->est, HETINV_ESTIMATOR_PHOTONS, &after));
+  assert_true(after == 1e9);
+  assert_ok(hetinv_estimator_set_param(p->est, HETINV_ESTIMATOR_PHOTONS, photons));
   free(o);
 }
 
@@ -451,7 +521,7 @@ static void layerwise_stages_free_one_layer_each(void **state) {
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_AVERAGE_WINDOW, 1));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_EPSILON, 0.05));
   /* A first coarse stage, then three layers of 1/3 mm. */
-  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t first = {sizeof first, p.coarse, 2, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &first));
   const double h = 1.0 / 3;
   assert_ok(hetinv_optimizer_add_layerwise_stages(opt, p.identity, h, 3, 4));
@@ -522,6 +592,7 @@ int main(void) {
       cmocka_unit_test(the_next_stage_starts_from_the_average),
       cmocka_unit_test(a_stage_epsilon_start_changes_only_the_first_half),
       cmocka_unit_test(a_stage_settles_at_its_own_epsilon),
+      cmocka_unit_test(a_stage_settles_with_more_photons),
       cmocka_unit_test(a_stage_window_sets_what_it_hands_on),
       cmocka_unit_test(layerwise_errors),
       cmocka_unit_test(layerwise_stages_free_one_layer_each),

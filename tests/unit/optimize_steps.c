@@ -463,7 +463,7 @@ static void the_margin_widens_each_range_within_physics(void **state) {
     assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_G, -0.999, 0.5));
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_BOX_MARGIN, 0.5));
     if (c < 2) assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, expect[c].coordinates));
-    hetinv_stage_t st = {sizeof st, c < 2 ? p->identity : g_map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
+    hetinv_stage_t st = {sizeof st, c < 2 ? p->identity : g_map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
     assert_ok(hetinv_optimizer_add_stage(opt, &st));
     assert_ok(hv_optimizer_alloc_stage_arrays(opt, 4));
     for (size_t i = 0; i < 4; ++i) {
@@ -493,7 +493,7 @@ static void mean_ratio_pairs_each_cells_sigmas(void **state) {
     assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_A, floor_zero ? 0.0 : 0.01, 1.0));
     assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, 1.0, 10.0));
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_COORDINATES, HETINV_COORDINATES_LOG_MEAN_RATIO));
-    hetinv_stage_t st = {sizeof st, map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0};
+    hetinv_stage_t st = {sizeof st, map, 1, NULL, NULL, 0.0, 0, 0.0, 0.0, 0.0};
     assert_ok(hetinv_optimizer_add_stage(opt, &st));
     assert_ok(hv_optimizer_alloc_stage_arrays(opt, k));
     size_t pairs = 0;
@@ -520,7 +520,7 @@ static void frozen_entries_never_move(void **state) {
   assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
   assert_ok(hetinv_optimizer_set_bounds(opt, HETINV_PARAM_SIGMA_S, SIGMA_LO, SIGMA_HI));
   const uint8_t frozen[4] = {1, 0, 0, 1};
-  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL, 0.0, 0, 0.0, 0.0};
+  hetinv_stage_t st = {sizeof st, p->identity, 6, frozen, NULL, 0.0, 0, 0.0, 0.0, 0.0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   pi_log_t *log = calloc(1, sizeof *log);
   log->opt = opt;
@@ -544,7 +544,7 @@ static void masked_values_give_no_gradient(void **state) {
     assert_ok(hetinv_optimizer_create(p->ctx, p->set, p->initial, &opt));
     assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_METHOD, method));
     uint8_t *mask = calloc(p->count, 1);
-    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask, 0.0, 0, 0.0, 0.0};
+    hetinv_stage_t st = {sizeof st, p->identity, 3, NULL, mask, 0.0, 0, 0.0, 0.0, 0.0};
     assert_ok(hetinv_optimizer_add_stage(opt, &st));
     free(mask); /* copied */
     assert_ok(hetinv_optimizer_run(opt, p->est, NULL));

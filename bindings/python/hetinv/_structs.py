@@ -134,6 +134,7 @@ class Stage(_Sized):
         ("average_window", ctypes.c_int32),
         ("settle_epsilon", ctypes.c_double),
         ("settle_fraction", ctypes.c_double),
+        ("settle_photons", ctypes.c_double),
     ]
 
 

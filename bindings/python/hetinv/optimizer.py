@@ -101,7 +101,7 @@ class Optimizer(Handle):
 
     @one_thread
     def add_stage(self, param_map, iterations=0, frozen=None, value_mask=None, epsilon_start=0.0,
-                  average_window=0, settle_epsilon=0.0, settle_fraction=0.0):
+                  average_window=0, settle_epsilon=0.0, settle_fraction=0.0, settle_photons=0.0):
         """Append a stage on `param_map`. frozen: param_map.size flags
         (true = entry kept fixed); value_mask: value_count flags (false =
         value left out). iterations 0: the "iterations" tunable. epsilon_start:
@@ -110,16 +110,17 @@ class Optimizer(Handle):
         average_window: the trailing iterates the stage's result averages
         (at most the "average_window" tunable); 0: that tunable, or the
         settling part. settle_epsilon: ADADELTA's relative epsilon over the
-        stage's last settle_fraction of iterations (0: none). Under SGD,
-        AdaGrad and Adam both scale "learning_rate" by their epsilon over the
-        "epsilon" tunable."""
+        stage's last settle_fraction of iterations (0: the stage's own).
+        Under SGD, AdaGrad and Adam both scale "learning_rate" by their
+        epsilon over the "epsilon" tunable. settle_photons: the estimator's
+        photons over that part, times its "photons" tunable (0: none)."""
         me = self._ptr
         handle_arg(param_map, ParamMap, "param_map")
         f = _mask_bytes(frozen, param_map.size, "frozen")
         m = _mask_bytes(value_mask, self._measurements.value_count, "value_mask")
         stage = _structs_stage(param_map, integer(iterations, "iterations"), f, m, number(epsilon_start, "epsilon_start"),
                                integer(average_window, "average_window"), number(settle_epsilon, "settle_epsilon"),
-                               number(settle_fraction, "settle_fraction"))
+                               number(settle_fraction, "settle_fraction"), number(settle_photons, "settle_photons"))
         check(lib.optimizer_add_stage(me, ctypes.byref(stage)))
         self._borrow(param_map)
         self._maps.append(param_map)
@@ -254,7 +255,7 @@ class Optimizer(Handle):
 
 
 def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start, average_window, settle_epsilon,
-                   settle_fraction):
+                   settle_fraction, settle_photons):
     from ._structs import Stage
 
     s = Stage()
@@ -266,4 +267,5 @@ def _structs_stage(param_map, iterations, frozen, value_mask, epsilon_start, ave
     s.average_window = average_window
     s.settle_epsilon = settle_epsilon
     s.settle_fraction = settle_fraction
+    s.settle_photons = settle_photons
     return s
