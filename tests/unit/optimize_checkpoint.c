@@ -201,6 +201,14 @@ static void resume_refuses_another_configuration(void **state) {
   expect_refused(opt, path, "stage 0");
   assert_message_contains("epsilon_start");
   hetinv_optimizer_destroy(&opt);
+  /* A settling part of more photons (hetinv_stage_t.settle_photons). */
+  t = s;
+  t.settle_photons[0] = 2.0;
+  t.settle_fraction[0] = 0.5;
+  opt = make_optimizer(p, &t);
+  expect_refused(opt, path, "stage 0");
+  assert_message_contains("settling");
+  hetinv_optimizer_destroy(&opt);
   /* Another schedule. */
   t = two_stage_setup(p);
   opt = make_optimizer(p, &t);
