@@ -449,13 +449,17 @@ static int read_optimizer(jr_t *jr, const cJSON *root, recon_scene_t *sc) {
   if (read_epsilon_start(jr, o, "epsilon_start", &sc->epsilon_start) < 0) return -1;
   if (read_epsilon_start(jr, o, "coarse_epsilon_start", &sc->coarse_epsilon_start) < 0) return -1;
   if (read_epsilon_start(jr, o, "settle_epsilon", &sc->settle_epsilon) < 0) return -1;
-  if (jr_number(jr, o, "optimizer", "settle_fraction", JR_OPTIONAL, &sc->settle_fraction) < 0) return -1;
+  int fraction_given = jr_number(jr, o, "optimizer", "settle_fraction", JR_OPTIONAL, &sc->settle_fraction);
+  if (fraction_given < 0) return -1;
   if (jr_number(jr, o, "optimizer", "settle_photons", JR_OPTIONAL, &sc->settle_photons) < 0) return -1;
   if (!(sc->settle_photons == 0.0 || (sc->settle_photons >= 1.0 && sc->settle_photons <= 1e6))) {
     return jr_fail(jr, "optimizer.settle_photons", "is %g; it must be 0 (none) or from 1 to 1e6 (times the photons)",
                    sc->settle_photons);
   }
   bool settles = sc->settle_epsilon > 0.0 || sc->settle_photons > 0.0;
+  /* The default's fraction (0.5) goes with its settling part: a scene that
+   * turns both settle_epsilon and settle_photons off has none. */
+  if (!settles && fraction_given == 0) sc->settle_fraction = 0.0;
   if (settles && !(sc->settle_fraction > 0.0 && sc->settle_fraction < 1.0)) {
     return jr_fail(jr, "optimizer.settle_fraction",
                    "is %g; with optimizer.settle_epsilon or settle_photons it must be > 0 and below 1", sc->settle_fraction);
