@@ -200,7 +200,7 @@ static hetinv_optimizer_t *optimizer(const scene_t *s, int32_t iterations) {
   hetinv_optimizer_t *opt = NULL;
   assert_ok(hetinv_optimizer_create(s->ctx, s->set, s->other, &opt));
   assert_ok(hetinv_optimizer_set_param(opt, HETINV_OPTIMIZER_MINIBATCH, 2));
-  hetinv_stage_t st = {sizeof st, s->map, iterations, NULL, NULL, 0, 0, 0, 0};
+  hetinv_stage_t st = {sizeof st, s->map, iterations, NULL, NULL, 0, 0, 0, 0, 0};
   assert_ok(hetinv_optimizer_add_stage(opt, &st));
   return opt;
 }
