@@ -9,6 +9,7 @@
  *   hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]
  *               [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]
  *               [--coarse-epsilon-start E] [--settle-epsilon E] [--settle-fraction F]
+ *               [--settle-photons P]
  *               [--coarse-fraction F] [--coarse-levels none|A,B,...] [--stage-results]
  *               [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]
  *               [--independent-errors] [--pooled-errors] [--expected-camera-errors] [--residual-weights]
@@ -85,7 +86,10 @@
  * run the finest stage's last fraction F at ε E and average those
  * iterates (optimizer.settle_epsilon, settle_fraction; both or neither;
  * off by default, except (2) and (4) with --full: 0.0005 over 0.4; 0 and
- * 0 turn it off); --coarse-window N makes each coarse stage hand
+ * 0 turn it off); --settle-photons P renders that settling part (or, in
+ * a cell without one, the finest stage's second half) at P times the
+ * photons (optimizer.settle_photons; off by default, unlike the
+ * built-in scene's 4); --coarse-window N makes each coarse stage hand
  * on the mean of its last N iterates (optimizer.coarse_average_window;
  * default 150 with --full; 0, the reduced default, means the run's window,
  * which at full size is longer than a coarse stage, so it would hand on

@@ -17,6 +17,7 @@ static void print_usage(FILE *to, const char *what) {
           "usage: hetinv-fig4 [--full] [--volumes N|A-B] [--configs 1,2,3,4] [--iterations N]\n"
           "                   [--photons N] [--minibatch N] [--epsilon E] [--epsilon-start E] [--decay D]\n"
           "                   [--coarse-epsilon-start E] [--settle-epsilon E] [--settle-fraction F]\n"
+          "                   [--settle-photons P]\n"
           "                   [--coarse-fraction F] [--coarse-levels none|A,B,...] [--stage-results]\n"
           "                   [--coarse-window N] [--loss-clip C] [--loss-clip-errors data|residual|residual_above]\n"
           "                   [--independent-errors] [--pooled-errors]\n"
@@ -74,7 +75,7 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       .bound_photons = -1, .bound_replicates = 4, .fit_photons = 20000, .fit_replicates = 4, .gradient_replicates = 0,
       .polish_replicates = 0, .polish_steps = 2, .polish_fisher = 2, .polish_damping = 0.01,
       .polish_fisher_photons = 0, .polish_cg = 0, .polish_max_step = 0.05,
-      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0, .coarse_epsilon_start = -1.0, .settle_epsilon = -1.0, .settle_fraction = -1.0,
+      .scale = -1.0, .epsilon = -1.0, .min_snr = -1.0, .decay = -1.0, .coarse_fraction = -1.0, .coarse_level_count = -1, .epsilon_start = -1.0, .coarse_epsilon_start = -1.0, .settle_epsilon = -1.0, .settle_fraction = -1.0, .settle_photons = -1.0,
       .loss_clip = -1.0, .loss_clip_errors = -1, .min_snr_errors = -1, .smoothness = -1.0, .multiscale = -1.0, .box_margin = -1.0,
       .coordinates = -1, .method = -1, .rate = -1.0, .beta1 = -1.0, .beta2 = -1.0,
   };
@@ -189,6 +190,9 @@ int fig4_options_parse(int argc, char **argv, fig4_options_t *o) {
       ++i;
     } else if (strcmp(a, "--settle-epsilon") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 1.0, &o->settle_epsilon) < 0) return 2;
+      ++i;
+    } else if (strcmp(a, "--settle-photons") == 0) {
+      if (recon_parse_real("hetinv-fig4", a, next, 1.0, 1e6, &o->settle_photons) < 0) return 2;
       ++i;
     } else if (strcmp(a, "--settle-fraction") == 0) {
       if (recon_parse_real("hetinv-fig4", a, next, 0.0, 0.999999, &o->settle_fraction) < 0) return 2;
@@ -348,6 +352,10 @@ void fig4_options_apply(const fig4_options_t *o, recon_scene_t *sc) {
   if (o->settle_epsilon >= 0.0) { /* 0 (with fraction 0): none, (2) and (4)'s --full default off */
     sc->settle_epsilon = o->settle_epsilon;
     sc->settle_fraction = o->settle_fraction;
+  }
+  if (o->settle_photons > 0.0) { /* the cell's settling part, or its finest stage's second half if it has none */
+    sc->settle_photons = o->settle_photons;
+    if (sc->settle_fraction == 0.0) sc->settle_fraction = 0.5;
   }
   if (o->coarse_window >= 0) sc->coarse_average_window = (int32_t)o->coarse_window;
   if (o->loss_clip >= 0.0) sc->loss_clip = o->loss_clip;

@@ -25,7 +25,7 @@ typedef struct fig4_options {
   /* --polish N (gradients per step; 0: none), --polish-steps, --polish-fisher, --polish-fisher-photons, --polish-damping, --polish-max-step, --polish-cg */
   int64_t polish_replicates, polish_steps, polish_fisher, polish_fisher_photons, polish_cg;
   double polish_damping, polish_max_step;
-  double scale, epsilon, min_snr, decay, coarse_fraction, epsilon_start, coarse_epsilon_start, settle_epsilon, settle_fraction, loss_clip, smoothness, multiscale, box_margin;
+  double scale, epsilon, min_snr, decay, coarse_fraction, epsilon_start, coarse_epsilon_start, settle_epsilon, settle_fraction, settle_photons, loss_clip, smoothness, multiscale, box_margin;
   double rate, beta1, beta2; /* --rate: SGD, AdaGrad and Adam's step size; --beta1, --beta2: Adam's decays */
   int coordinates, method, loss_clip_errors, min_snr_errors;
   /* --coarse-levels: the coarser stages' cells per axis, increasing; -1:
